@@ -1,0 +1,79 @@
+"""``hexctl``: the project's command line (demo, topic tools, benchmarks)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="hexctl", description=__doc__)
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    demo = commands.add_parser("demo", help="run the main job (for now: the load-predictor demo)")
+    demo.add_argument("--output", default="output/load_predictor", help="report directory")
+    demo.add_argument("--samples", type=int, default=2000, help="load samples to publish")
+    demo.add_argument("--rate", type=float, default=200.0, help="sample rate (Hz)")
+    demo.add_argument("--seed", type=int, default=7)
+
+    bench = commands.add_parser("bench", help="run benchmarks (ratios against in-process baselines)")
+    bench.add_argument("cases", nargs="*", help="case names (default: all)")
+    bench.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
+
+    topic = commands.add_parser("topic", help="inspect topics (ros2 topic stand-in)")
+    verbs = topic.add_subparsers(dest="verb", required=True)
+    lst = verbs.add_parser("list", help="list topics")
+    lst.add_argument("-t", "--show-types", action="store_true", help="types and endpoint counts")
+    lst.add_argument("--wait", type=float, default=1.0, help="discovery time (s)")
+    echo = verbs.add_parser("echo", help="print messages of a topic as YAML")
+    echo.add_argument("topic")
+    echo.add_argument("--once", action="store_true")
+    echo.add_argument("--count", type=int, default=0, help="stop after N messages (0 = never)")
+    echo.add_argument("--field", default="", help="dotted field path to print, e.g. wrench.force")
+    echo.add_argument("--timeout", type=float, default=10.0, help="wait for the topic (s)")
+    hz = verbs.add_parser("hz", help="print the receive rate of a topic")
+    hz.add_argument("topic")
+    hz.add_argument("--window", type=int, default=1000, help="messages in the statistics window")
+    hz.add_argument("--duration", type=float, default=0.0, help="stop after this many s (0 = never)")
+    hz.add_argument("--timeout", type=float, default=10.0, help="wait for the topic (s)")
+    pub = verbs.add_parser("pub", help="publish a message given as YAML")
+    pub.add_argument("topic")
+    pub.add_argument("type", help="message type, e.g. std_msgs/msg/Float64")
+    pub.add_argument("values", nargs="?", default="", help="YAML mapping of fields, e.g. '{data: 1.5}'")
+    pub.add_argument("-r", "--rate", type=float, default=1.0, help="publish rate (Hz)")
+    pub.add_argument("-t", "--times", type=int, default=0, help="publish N times (0 = until Ctrl-C)")
+    pub.add_argument("-1", "--once", action="store_true", help="publish once")
+    pub.add_argument("--wait", type=float, default=2.0, help="wait for a subscriber first (s)")
+    return parser
+
+
+def main(argv=None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "demo":
+            from hex_control.nodes.demo_load_predictor import run_demo
+
+            return run_demo(args.output, args.samples, args.rate, args.seed)
+        if args.command == "bench":
+            from hex_control.bench import run_benchmarks
+
+            return run_benchmarks(args.cases, quick=args.quick)
+        from hex_control import topic_tools
+
+        if args.verb == "list":
+            return topic_tools.topic_list(args.show_types, args.wait)
+        if args.verb == "echo":
+            return topic_tools.topic_echo(args.topic, args.once, args.count, args.field, args.timeout)
+        if args.verb == "hz":
+            return topic_tools.topic_hz(args.topic, args.window, args.duration, args.timeout)
+        return topic_tools.topic_pub(args.topic, args.type, args.values, args.rate,
+                                     1 if args.once else args.times, args.wait)
+    except KeyboardInterrupt:
+        return 130
+    except ValueError as exc:
+        print(f"hexctl: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,24 @@
+"""Where the shipped configuration files are (config/*.yaml)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def config_file(name: str) -> Path:
+    """Path of ``config/<name>``: the installed share directory, else the source tree."""
+    try:
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+        try:
+            installed = Path(get_package_share_directory("hex_control")) / "config" / name
+            if installed.is_file():
+                return installed
+        except (PackageNotFoundError, OSError):  # OSError: no AMENT_PREFIX_PATH (venv)
+            pass
+    except ImportError:
+        pass
+    source = Path(__file__).resolve().parent.parent / "config" / name
+    if not source.is_file():
+        raise FileNotFoundError(f"no configuration file {name!r} (looked in the install and {source.parent})")
+    return source

@@ -1,0 +1,233 @@
+"""Node ``load_predictor``: one-step-ahead Kalman prediction of a measured load.
+
+Seed 000 part 2, eqs 6.2-6.7 (library: :mod:`hex_control.estimation`). Generic in what it
+predicts: the input is any numeric field of any message type (e.g. ``wrench.force.z``
+of a ``geometry_msgs/msg/WrenchStamped``, or ``data`` of a ``std_msgs/msg/Float64``).
+
+Topics:
+    <input_topic> (param, default ``load``)   in   the measured load y(t) + L_bar
+    ~/prediction  hex_control_msgs/LoadPrediction  out  prediction of the next sample
+    /diagnostics  diagnostic_msgs/DiagnosticArray  out  counters, model, warnings
+
+The model (a, W, V, mean) is either fixed by parameters or, with ``identify_window`` > 0,
+re-identified by maximum likelihood over the last N samples every ``identify_every``
+samples, in a worker thread so that filtering never waits for it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                SetParametersResult)
+from rclpy.clock import JumpThreshold
+from rclpy.duration import Duration
+from rclpy.node import Node
+
+from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.messages import check_numeric_field, get_field, message_class
+from hex_control.nodes.runtime import run_node
+from hex_control_msgs.msg import LoadPrediction
+
+#: samples before the first online identification (the window may still be filling)
+_MIN_IDENTIFICATION_SAMPLES = 50
+_MODEL_PARAMETERS = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
+
+
+def _float_range(low: float, high: float) -> list[FloatingPointRange]:
+    return [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+
+
+class LoadPredictorNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("load_predictor", **kwargs)
+        self._declare_parameters()
+        p = self.get_parameter
+        self._input_field = p("input_field").value
+        input_class = message_class(p("input_type").value)
+        check_numeric_field(input_class, self._input_field)
+        self._has_header = "header" in input_class.get_fields_and_field_types()
+        self._quantity = p("quantity").value
+        self._valid_range = (p("valid_min").value, p("valid_max").value)
+
+        self.diagnostics = Diagnostics(self, p("diagnostics_period_s").value)
+        self._predictor = OneStepPredictor(self._model_from_parameters(), p("mean").value)
+        self._window = deque(maxlen=max(p("identify_window").value, 1))
+        self._identify_every = p("identify_every").value or max(p("identify_window").value // 4, 1)
+        self._since_identification = self._identify_every  # identify as soon as possible
+        self._identifier = ThreadPoolExecutor(max_workers=1, thread_name_prefix="identify")
+        self._identification = None
+        self._last_stamp_ns = None
+        self._publish_model_values()
+
+        self._publisher = self.create_publisher(LoadPrediction, "~/prediction", 10)
+        self._subscription = self.create_subscription(
+            input_class, p("input_topic").value, self._on_measurement, 10)
+        self.add_on_set_parameters_callback(self._validate_parameters)
+        self.add_post_set_parameters_callback(self._apply_parameters)
+        self._jump_handler = self.get_clock().create_jump_callback(
+            JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=True),
+            post_callback=lambda _jump: self.reset("clock jumped back"))
+
+    # -- parameters ------------------------------------------------------------------
+    def _declare_parameters(self) -> None:
+        def declare(name, default, description, read_only=False, **ranges):
+            self.declare_parameter(name, default, ParameterDescriptor(
+                description=description, read_only=read_only, **ranges))
+
+        declare("input_topic", "load", "topic of the measured load", read_only=True)
+        declare("input_type", "std_msgs/msg/Float64", "message type of input_topic", read_only=True)
+        declare("input_field", "data", "dotted path of the numeric load field, e.g. wrench.force.z",
+                read_only=True)
+        declare("quantity", "load", "name and unit of the predicted quantity, e.g. normal_force_n",
+                read_only=True)
+        declare("a", 0.9, "Gauss-Markov coefficient a (eq. 6.2)",
+                floating_point_range=_float_range(-0.9999, 0.9999))
+        declare("process_variance", 1.0, "W, variance of w(t) (load unit^2)",
+                floating_point_range=_float_range(0.0, 1e12))
+        declare("measurement_variance", 1.0, "V, variance of v(t) (load unit^2)",
+                floating_point_range=_float_range(0.0, 1e12))
+        declare("initial_variance", -1.0, "P(0) = sigma(0) (load unit^2); < 0 = stationary W/(1-a^2)")
+        declare("mean", 0.0, "mean load L_bar subtracted before filtering (load unit)")
+        declare("identify_window", 0, "identify a, W, V, mean online over the last N samples; 0 = off",
+                integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
+        declare("identify_every", 0, "samples between identifications; 0 = window/4",
+                integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
+        declare("valid_min", -1e9, "measurements below this are rejected (load unit)", read_only=True)
+        declare("valid_max", 1e9, "measurements above this are rejected (load unit)", read_only=True)
+        declare("diagnostics_period_s", 1.0, "period of /diagnostics (s)",
+                floating_point_range=_float_range(0.01, 60.0), read_only=True)
+
+    def _model_from_values(self, values: dict) -> GaussMarkovModel:
+        initial = values["initial_variance"]
+        return GaussMarkovModel(values["a"], values["process_variance"],
+                                values["measurement_variance"], None if initial < 0 else initial)
+
+    def _model_from_parameters(self) -> GaussMarkovModel:
+        return self._model_from_values({n: self.get_parameter(n).value for n in _MODEL_PARAMETERS})
+
+    def _validate_parameters(self, parameters) -> SetParametersResult:
+        values = {n: self.get_parameter(n).value for n in _MODEL_PARAMETERS}
+        values.update({q.name: q.value for q in parameters if q.name in values})
+        try:
+            if not math.isfinite(values["mean"]):
+                raise ValueError("mean must be finite")
+            self._model_from_values(values)
+        except (TypeError, ValueError) as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_parameters(self, parameters) -> None:
+        if any(q.name in _MODEL_PARAMETERS for q in parameters):
+            # Keep the current estimate: a retuned model continues bumplessly.
+            self._predictor.model = self._model_from_parameters()
+            self._predictor.mean = self.get_parameter("mean").value
+            self._publish_model_values()
+
+    def _publish_model_values(self) -> None:
+        model = self._predictor.model
+        self.diagnostics.set("model_a", f"{model.a:.6g}")
+        self.diagnostics.set("model_w", f"{model.process_variance:.6g}")
+        self.diagnostics.set("model_v", f"{model.measurement_variance:.6g}")
+        self.diagnostics.set("mean", f"{self._predictor.mean:.6g}")
+
+    # -- filtering -------------------------------------------------------------------
+    def reset(self, reason: str) -> None:
+        """Forget the filter state (not the model); the next sample starts afresh."""
+        self._predictor.reset()
+        self._window.clear()
+        self._last_stamp_ns = None
+        self.diagnostics.count("resets")
+        self.get_logger().warning(f"predictor reset: {reason}")
+
+    def _reject(self, counter: str, text: str) -> None:
+        self.diagnostics.count(counter)
+        self.diagnostics.warn(text)
+        self.get_logger().warning(text, throttle_duration_sec=1.0)
+
+    def _on_measurement(self, msg) -> None:
+        try:
+            value = float(get_field(msg, self._input_field))
+        except (TypeError, ValueError):
+            self._reject("rejected_malformed", f"{self._input_field} is not a number")
+            return
+        if not math.isfinite(value):
+            self._reject("rejected_nonfinite", f"rejected non-finite measurement {value}")
+            return
+        if not self._valid_range[0] <= value <= self._valid_range[1]:
+            self._reject("rejected_out_of_range", f"rejected measurement {value} outside {self._valid_range}")
+            return
+        if self._has_header:
+            stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            if self._last_stamp_ns is not None and stamp_ns < self._last_stamp_ns:
+                self.reset("measurement stamp went back in time")
+            self._last_stamp_ns = stamp_ns
+            stamp = msg.header.stamp
+        else:
+            stamp = self.get_clock().now().to_msg()
+
+        self._adopt_identification()
+        step = self._predictor.step(value)
+        self._window.append(value)
+        self._schedule_identification()
+        self.diagnostics.count("samples")
+
+        out = LoadPrediction()
+        out.header.stamp = stamp
+        out.header.frame_id = msg.header.frame_id if self._has_header else ""
+        out.quantity = self._quantity
+        out.measurement = step.measurement
+        out.mean = self._predictor.mean
+        out.prediction = step.prediction
+        out.prediction_variance = step.prediction_variance
+        out.innovation = step.innovation
+        out.innovation_variance = step.innovation_variance
+        out.gain = step.gain
+        model = self._predictor.model
+        out.model_a, out.model_w, out.model_v = model.a, model.process_variance, model.measurement_variance
+        out.sample_count = self._predictor.sample_count
+        self._publisher.publish(out)
+
+    # -- online identification -----------------------------------------------------------
+    def _schedule_identification(self) -> None:
+        window = self.get_parameter("identify_window").value
+        if window <= 0:
+            return
+        self._since_identification += 1
+        if (len(self._window) >= min(window, _MIN_IDENTIFICATION_SAMPLES)
+                and self._since_identification >= self._identify_every
+                and self._identification is None):
+            self._since_identification = 0
+            self._identification = self._identifier.submit(identify, list(self._window))
+
+    def _adopt_identification(self) -> None:
+        future = self._identification
+        if future is None or not future.done():
+            return
+        self._identification = None
+        try:
+            result = future.result()
+        except ValueError as exc:
+            self.diagnostics.count("identification_failures")
+            self.get_logger().warning(f"identification failed: {exc}")
+            return
+        self.diagnostics.count("identifications")
+        self._predictor.model = result.model
+        self._predictor.mean = result.mean
+        self._predictor.warm_start(list(self._window))
+        self._publish_model_values()
+
+    def destroy_node(self):
+        self._identifier.shutdown(wait=False, cancel_futures=True)
+        return super().destroy_node()
+
+
+def main(args=None) -> int:
+    return run_node(LoadPredictorNode, args)
+
+
+if __name__ == "__main__":
+    main()

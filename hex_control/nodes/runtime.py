@@ -1,0 +1,26 @@
+"""Entry-point plumbing shared by every node's ``main``."""
+
+from __future__ import annotations
+
+import sys
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+
+
+def run_node(node_class, args=None) -> int:
+    """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly."""
+    rclpy.init(args=sys.argv if args is None else args)
+    node = None
+    try:
+        node = node_class()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0

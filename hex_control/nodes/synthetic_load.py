@@ -1,0 +1,68 @@
+"""Node ``synthetic_load``: publishes a simulated Gauss-Markov load (eqs 6.1-6.3).
+
+Stands in for a load measurement when there is no plant: y(t) = L_bar + dL(t) + v(t) at
+``rate_hz``, as ``std_msgs/Float64`` or as ``geometry_msgs/WrenchStamped`` (force.z, N).
+Seeded, so a run is reproducible; stops after ``count`` samples if ``count`` > 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from geometry_msgs.msg import WrenchStamped
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from std_msgs.msg import Float64
+
+from hex_control.estimation import GaussMarkovModel
+from hex_control.nodes.runtime import run_node
+
+_TYPES = {"std_msgs/msg/Float64": Float64, "geometry_msgs/msg/WrenchStamped": WrenchStamped}
+
+
+class SyntheticLoadNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("synthetic_load", **kwargs)
+        read_only = ParameterDescriptor(read_only=True)
+        for name, default in (("topic", "load"), ("type", "std_msgs/msg/Float64"), ("a", 0.9),
+                              ("process_variance", 1.0), ("measurement_variance", 1.0),
+                              ("mean", 0.0), ("rate_hz", 100.0), ("seed", 0), ("count", 0)):
+            self.declare_parameter(name, default, read_only)
+        p = lambda name: self.get_parameter(name).value  # noqa: E731
+        if p("type") not in _TYPES:
+            raise ValueError(f"type must be one of {sorted(_TYPES)}, got {p('type')!r}")
+        if not p("rate_hz") > 0:
+            raise ValueError(f"rate_hz must be > 0, got {p('rate_hz')}")
+        model = GaussMarkovModel(p("a"), p("process_variance"), p("measurement_variance"))
+        total = p("count") if p("count") > 0 else 1_000_000
+        _, measurements = model.simulate(total, np.random.default_rng(p("seed")))
+        self.measurements = p("mean") + measurements
+        self._count = p("count")
+        self._sent = 0
+        self._class = _TYPES[p("type")]
+        self._publisher = self.create_publisher(self._class, p("topic"), 10)
+        self._timer = self.create_timer(1.0 / p("rate_hz"), self._publish)
+
+    def _publish(self) -> None:
+        if self._count and self._sent >= self._count:
+            self._timer.cancel()
+            return
+        if self._sent == 0 and self._publisher.get_subscription_count() == 0:
+            return  # nobody listens yet: do not start the series into the void
+        value = float(self.measurements[self._sent % self.measurements.size])
+        msg = self._class()
+        if self._class is Float64:
+            msg.data = value
+        else:
+            msg.header.stamp = self.get_clock().now().to_msg()
+            msg.header.frame_id = "tool"
+            msg.wrench.force.z = value
+        self._publisher.publish(msg)
+        self._sent += 1
+
+
+def main(args=None) -> int:
+    return run_node(SyntheticLoadNode, args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,36 @@
+"""ament_python package hex_control (see package.xml)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "hex_control"
+
+# One console script per node: `ros2 run hex_control <name>` in a full ROS 2 install
+# (setup.cfg puts them in lib/hex_control), `hex-<name>` on the PATH of the venv.
+NODES = {
+    "load_predictor": "hex_control.nodes.load_predictor:main",
+    "synthetic_load": "hex_control.nodes.synthetic_load:main",
+}
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(exclude=["test", "test.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="hex_control developers",
+    maintainer_email="hex-control@example.org",
+    description="Hierarchical control of weld-bead grinding on a parallel-kinematic machine tool",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [f"{name} = {target}" for name, target in NODES.items()]
+        + [f"hex-{name.replace('_', '-')} = {target}" for name, target in NODES.items()]
+        + ["hexctl = hex_control.cli:main"],
+    },
+)
