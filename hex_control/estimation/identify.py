@@ -37,8 +37,10 @@ class Identification:
     Attributes:
         model: the estimate (a, W, V; P(0) stationary).
         mean: the sample mean L_bar that was subtracted (load unit).
-        standard_errors: (se_a, se_W, se_V); NaN where the Hessian is not usable
-            (an estimate on the boundary, e.g. V = 0).
+        standard_errors: (se_a, se_W, se_V) from the observed information; NaN when
+            the estimate lies on the boundary (W or V ~ 0 -- the ML estimate of a small V
+            piles up at zero on short, weakly correlated series) or the Hessian is not
+            positive definite there.
         log_likelihood: at the estimate.
         samples: series length used.
     """

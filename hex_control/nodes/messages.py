@@ -63,6 +63,48 @@ def _nested_class(type_string: str):
     return message_class(f"{match.group(1)}/{match.group(2)}") if match else None
 
 
+_INTEGER_BITS = {"int8": 8, "int16": 16, "int32": 32, "int64": 64, "uint8": 8, "uint16": 16,
+                 "uint32": 32, "uint64": 64, "octet": 8, "char": 8, "byte": 8}
+_ELEMENT = re.compile(r"^(?:sequence<([^,>]+)(?:, ?\d+)?>|([^\[]+)\[\d+\])$")
+
+
+def _coerce(type_string: str, value, field: str):
+    """A primitive field value checked and converted to what the C conversion accepts.
+
+    The generated classes only check types with ROS_PYTHON_CHECK_FIELDS set; without
+    this a wrong value would surface only at publish time, as an obscure error.
+    """
+    element = _ELEMENT.match(type_string)
+    if element:
+        if not isinstance(value, (list, tuple)):
+            raise ValueError(f"field {field!r} ({type_string}) needs a list, got {value!r}")
+        inner = element.group(1) or element.group(2)
+        return [_coerce(inner, v, field) for v in value]
+    base = type_string.split("<")[0]
+    if base in ("double", "float"):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"field {field!r} ({base}) needs a number, got {value!r}")
+        return float(value)
+    if base in _INTEGER_BITS:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"field {field!r} ({base}) needs an integer, got {value!r}")
+        bits = _INTEGER_BITS[base]
+        low, high = (0, 2**bits - 1) if base.startswith("u") or base in ("octet", "byte", "char") \
+            else (-(2 ** (bits - 1)), 2 ** (bits - 1) - 1)
+        if not low <= value <= high:
+            raise ValueError(f"field {field!r} ({base}) must be in [{low}, {high}], got {value}")
+        return bytes([value]) if base in ("octet", "byte") else value
+    if base == "boolean":
+        if not isinstance(value, bool):
+            raise ValueError(f"field {field!r} (boolean) needs true/false, got {value!r}")
+        return value
+    if base in ("string", "wstring"):
+        if not isinstance(value, str):
+            raise ValueError(f"field {field!r} (string) needs a string, got {value!r}")
+        return value
+    return value
+
+
 def fill_message(msg, values: dict):
     """Set the fields of ``msg`` from a nested dict (as from YAML); returns ``msg``.
 
@@ -77,10 +119,7 @@ def fill_message(msg, values: dict):
             raise ValueError(f"{type(msg).__name__} has no field {name!r}; fields: {', '.join(fields)}")
         nested = _nested_class(fields[name])
         if nested is None:
-            current = getattr(msg, name)
-            if isinstance(current, float) and isinstance(value, int):
-                value = float(value)
-            setattr(msg, name, value)
+            setattr(msg, name, _coerce(fields[name], value, name))
         elif fields[name].startswith("sequence<") or fields[name].endswith("]"):
             setattr(msg, name, [fill_message(nested(), v) for v in value])
         else:

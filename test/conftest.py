@@ -1,0 +1,48 @@
+"""Fixtures: unit tests need none; ROS tests use ``ros`` (in-process) and ``spawn`` (subprocess)."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from ros_harness import NodeProcess, RosHarness, run_domain_id  # noqa: E402
+
+DOMAIN_ID = run_domain_id()
+
+
+@pytest.fixture(scope="session")
+def ros_env() -> dict:
+    """Environment for subprocess nodes: this run's domain, discovery on localhost only."""
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env["PYTHONUNBUFFERED"] = "1"
+    os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
+    return env
+
+
+@pytest.fixture
+def ros(ros_env):
+    harness = RosHarness(DOMAIN_ID)
+    yield harness
+    harness.close()
+
+
+@pytest.fixture
+def spawn(ros_env, tmp_path):
+    """``spawn(['hex-load-predictor', '--ros-args', ...])`` -> NodeProcess, stopped at teardown."""
+    processes: list[NodeProcess] = []
+
+    def start(command: list[str]) -> NodeProcess:
+        process = NodeProcess(command, ros_env, tmp_path / f"{Path(command[0]).name}-{len(processes)}.log")
+        processes.append(process)
+        return process
+
+    yield start
+    for process in processes:
+        process.stop()

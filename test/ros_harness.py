@@ -1,0 +1,138 @@
+"""Launch-free ROS 2 test harness: private contexts, a spinning executor, wait helpers,
+and nodes as real subprocesses (console scripts).
+
+Each test gets its own ``rclpy.Context`` on the run's own ``ROS_DOMAIN_ID`` (so parallel
+runs on one machine do not see each other), discovery limited to localhost, and a
+``MultiThreadedExecutor`` spinning in a thread. Teardown order: executor.shutdown ->
+destroy nodes -> context.shutdown -> join the thread.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.qos import QoSProfile
+
+#: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively
+_DOMAIN_FIRST, _DOMAIN_COUNT = 100, 130
+
+
+def run_domain_id() -> int:
+    """A domain id for this test run: fixed by the environment, else from the process id."""
+    return int(os.environ.get("HEX_TEST_DOMAIN_ID", _DOMAIN_FIRST + os.getpid() % _DOMAIN_COUNT))
+
+
+def wait_until(condition, timeout_s: float, interval_s: float = 0.02, what: str = "condition"):
+    """Poll ``condition()`` until it returns a truthy value; raise TimeoutError after timeout_s."""
+    end = time.monotonic() + timeout_s
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > end:
+            raise TimeoutError(f"timed out after {timeout_s:g} s waiting for {what}")
+        time.sleep(interval_s)
+
+
+class RosHarness:
+    """One private rclpy context with an executor spinning in a background thread."""
+
+    def __init__(self, domain_id: int):
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.executor = MultiThreadedExecutor(num_threads=2, context=self.context)
+        self._nodes = []
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception:  # noqa: BLE001 - shutdown of the context ends the spin
+            pass
+
+    def add(self, node):
+        """Spin an already constructed node (build it with ``context=harness.context``)."""
+        self._nodes.append(node)
+        self.executor.add_node(node)
+        return node
+
+    def node(self, name: str):
+        return self.add(rclpy.create_node(name, context=self.context))
+
+    def collect(self, msg_type, topic: str, qos=10) -> list:
+        """Subscribe and return the list that received messages are appended to."""
+        received: list = []
+        self.node(f"collect_{len(self._nodes)}").create_subscription(msg_type, topic, received.append, qos)
+        return received
+
+    def wait_for_message(self, msg_type, topic: str, timeout_s: float = 10.0, predicate=None,
+                         qos=QoSProfile(depth=10)):
+        """The first message on ``topic`` satisfying ``predicate`` (default: any)."""
+        received = self.collect(msg_type, topic, qos)
+        predicate = predicate or (lambda _m: True)
+        return wait_until(lambda: next((m for m in list(received) if predicate(m)), None),
+                          timeout_s, what=f"a message on {topic}")
+
+    def wait_for_service(self, client, timeout_s: float = 10.0) -> None:
+        if not client.wait_for_service(timeout_sec=timeout_s):
+            raise TimeoutError(f"service {client.srv_name} not available within {timeout_s:g} s")
+
+    def call(self, client, request, timeout_s: float = 10.0):
+        self.wait_for_service(client, timeout_s)
+        future = client.call_async(request)
+        wait_until(future.done, timeout_s, what=f"a response from {client.srv_name}")
+        return future.result()
+
+    def wait_for_match(self, node, topic: str, publishers: int = 0, subscribers: int = 0,
+                       timeout_s: float = 15.0) -> None:
+        """Wait until the graph shows at least this many publishers / subscribers on topic."""
+        wait_until(lambda: node.count_publishers(topic) >= publishers
+                   and node.count_subscribers(topic) >= subscribers,
+                   timeout_s, what=f"{publishers} publisher(s), {subscribers} subscriber(s) on {topic}")
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=5.0)
+        for node in self._nodes:
+            node.destroy_node()
+        self.context.try_shutdown()
+        self._thread.join(timeout=5.0)
+
+
+class NodeProcess:
+    """A node started as a real process, e.g. ``NodeProcess(['hex-load-predictor', ...])``."""
+
+    def __init__(self, command: list[str], env: dict, log_path: Path):
+        executable = Path(sys.executable).parent / command[0]
+        if executable.exists():
+            command = [str(executable), *command[1:]]
+        self.log_path = log_path
+        self._log = open(log_path, "w")  # noqa: SIM115 - closed in stop()
+        self.process = subprocess.Popen(command, env=env, stdout=self._log, stderr=subprocess.STDOUT)
+
+    def output(self) -> str:
+        self._log.flush()
+        return self.log_path.read_text()
+
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def stop(self, timeout_s: float = 10.0) -> int:
+        if self.alive():
+            self.process.send_signal(signal.SIGINT)
+            try:
+                self.process.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+        self._log.close()
+        return self.process.returncode
