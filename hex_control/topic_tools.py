@@ -132,8 +132,8 @@ def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: in
         return 2
     with _cli_node("hexctl_topic_pub") as node:
         publisher = node.create_publisher(cls, topic, 10)
-        end = time.monotonic() + wait_s  # give subscribers a chance to match first
-        while node.count_subscribers(topic) == 0 and time.monotonic() < end:
+        end = time.monotonic() + wait_s  # let subscribers match this writer first
+        while publisher.get_subscription_count() == 0 and time.monotonic() < end:
             _spin_for(node, 0.05)
         sent = 0
         while rclpy.ok() and (times <= 0 or sent < times):

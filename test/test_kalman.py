@@ -134,6 +134,9 @@ def test_skill_score_reference_points():
     y = np.array([1.0, 2.0, 3.0, 4.0])
     assert skill_score(y, np.append(y[1:], 0.0)) == 1.0           # perfect
     assert skill_score(y, y) == 0.0                              # persistence itself
+    noisy = np.array([1.0, 5.0, 2.0, 4.0, 3.0])
+    partial = skill_score(noisy, np.append(noisy[1:], 0.0) + [0, 9, 0, 0, 0], [True, False, True, True])
+    assert partial == 1.0  # the pair with the wrong prediction is excluded
     with pytest.raises(ValueError, match="constant"):
         skill_score(np.ones(5), np.ones(5))
 

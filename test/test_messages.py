@@ -6,7 +6,7 @@ from geometry_msgs.msg import WrenchStamped
 from hex_control.nodes.messages import (check_numeric_field, fill_message, get_field, message_class,
                                         to_primitive, type_name_of)
 from hex_control_msgs.msg import Contour
-from hex_control_msgs.srv import TestPose as TestPoseService
+from hex_control_msgs.srv import TestPose as PoseTestService
 
 
 def test_message_class_resolution():
@@ -22,12 +22,12 @@ def test_fill_and_dump_round_trip_with_nested_sequences():
     data = {"error_code": {"val": -2}, "first_unreachable_index": 1,
             "reports": [{"reachable": True, "strut_lengths_mm": [1.0, 2.0]},
                         {"reachable": False, "strut_distance_margin_mm": -3}]}
-    response = fill_message(TestPoseService.Response(), data)
+    response = fill_message(PoseTestService.Response(), data)
     assert response.reports[1].strut_distance_margin_mm == -3.0
     dumped = to_primitive(response)
     assert dumped["reports"][0]["strut_lengths_mm"] == [1.0, 2.0]
     assert dumped["error_code"]["val"] == -2
-    assert fill_message(TestPoseService.Response(), dumped) == response
+    assert fill_message(PoseTestService.Response(), dumped) == response
 
 
 def test_fill_refuses_unknown_fields_and_bad_types():

@@ -100,6 +100,14 @@ class OneStepPredictor:
         self._variance = self.model.p0
         self.sample_count = 0
 
+    def restore(self, prior: float, prior_variance: float) -> None:
+        """Continue from a known state: L(t|t-1) = ``prior`` and P(t) = ``prior_variance``
+        (e.g. from the last published LoadPrediction after a restart)."""
+        if not (math.isfinite(prior) and math.isfinite(prior_variance) and prior_variance >= 0):
+            raise ValueError(f"need a finite prior and variance >= 0, got {prior!r}, {prior_variance!r}")
+        self._estimate = prior - self.mean
+        self._variance = prior_variance
+
     def warm_start(self, measurements) -> None:
         """Reset, then filter a recorded history at once; streaming continues after it."""
         self.reset()

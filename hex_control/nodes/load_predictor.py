@@ -63,9 +63,10 @@ class LoadPredictorNode(Node):
         self._last_stamp_ns = None
         self._publish_model_values()
 
-        self._publisher = self.create_publisher(LoadPrediction, "~/prediction", 10)
+        depth = p("qos_depth").value
+        self._publisher = self.create_publisher(LoadPrediction, "~/prediction", depth)
         self._subscription = self.create_subscription(
-            input_class, p("input_topic").value, self._on_measurement, 10)
+            input_class, p("input_topic").value, self._on_measurement, depth)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._jump_handler = self.get_clock().create_jump_callback(
@@ -98,6 +99,8 @@ class LoadPredictorNode(Node):
                 integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
         declare("valid_min", -1e9, "measurements below this are rejected (load unit)", read_only=True)
         declare("valid_max", 1e9, "measurements above this are rejected (load unit)", read_only=True)
+        declare("qos_depth", 100, "history depth of the input and output streams (samples)",
+                integer_range=[IntegerRange(from_value=1, to_value=10_000, step=1)], read_only=True)
         declare("diagnostics_period_s", 1.0, "period of /diagnostics (s)",
                 floating_point_range=_float_range(0.01, 60.0), read_only=True)
 
