@@ -123,8 +123,9 @@ def report(received, samples: int, rate_hz: float, out: Path) -> int:
     plot_prediction(out / "load_prediction.png", time_s, measurement, prediction, std,
                     "normal force (N)")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
-    print(f"\nreceived {len(received)}/{samples} predictions over ROS 2 "
-          f"({summary['samples_lost_in_transport']} gaps)")
+    counts = [m.sample_count for m in received]
+    print(f"\nreceived {len(received)}/{samples} predictions over ROS 2; "
+          f"gaps in sample_count at {[c for c, d in zip(counts[1:], np.diff(counts)) if d != 1]}")
     print(f"true model       a={TRUE_MODEL.a:.3f} W={TRUE_MODEL.process_variance:.3f} N^2 "
           f"V={TRUE_MODEL.measurement_variance:.3f} N^2 mean={MEAN_FORCE_N:.2f} N")
     print(f"identified model a={identified.a:.3f} W={identified.process_variance:.3f} N^2 "

@@ -220,7 +220,9 @@ class LoadPredictorNode(Node):
         self.diagnostics.count("identifications")
         self._predictor.model = result.model
         self._predictor.mean = result.mean
+        count = self._predictor.sample_count  # a model swap is not a reset: keep counting
         self._predictor.warm_start(list(self._window))
+        self._predictor.sample_count = count
         self._publish_model_values()
 
     def destroy_node(self):

@@ -1,0 +1,18 @@
+"""The benchmark harness runs its cases and prints a ratio against an in-process baseline."""
+
+import re
+
+from hex_control.bench import run_benchmarks
+
+
+def test_predictor_benchmark_prints_figures_and_ratio(capsys):
+    assert run_benchmarks(["predictor"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"batch predict_series\s*:\s*[\d,]+ steps/s", out)
+    ratio = float(re.search(r"ratio batch / plain loop: ([\d.]+)x", out).group(1))
+    assert ratio > 0  # its size is reported, not asserted: speed belongs to the benchmark
+
+
+def test_unknown_case_is_refused(capsys):
+    assert run_benchmarks(["nope"]) == 2
+    assert "available" in capsys.readouterr().out
