@@ -38,14 +38,20 @@ def start_predictor(ros, namespace: str, **parameters):
     return ros.add(LoadPredictorNode(context=ros.context, namespace=namespace, parameter_overrides=overrides))
 
 
+def wired_source(ros, namespace: str, msg_type):
+    """A publisher on <ns>/load, and collectors of the predictions and /diagnostics,
+    returned once the predictor is matched on both sides."""
+    predictions = ros.collect(LoadPrediction, f"{namespace}/load_predictor/prediction", publishers=1)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    source = ros.node(f"source{namespace.replace('/', '_')}")
+    publisher = source.create_publisher(msg_type, f"{namespace}/load", 10)
+    ros.wait_for_match(source, f"{namespace}/load", subscribers=1)
+    return publisher, predictions, diagnostics
+
+
 def test_node_predicts_exactly_like_the_library_and_counts_rejections(ros):
     node = start_predictor(ros, "/t1", mean=10.0, valid_max=1e6)
-    predictions = ros.collect(LoadPrediction, "/t1/load_predictor/prediction")
-    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
-    source = ros.node("source")
-    publisher = source.create_publisher(Float64, "/t1/load", 10)
-    ros.wait_for_match(source, "/t1/load", subscribers=1)
-    ros.wait_for_match(source, "/t1/load_predictor/prediction", publishers=1, subscribers=1)
+    publisher, predictions, diagnostics = wired_source(ros, "/t1", Float64)
 
     values = [11.0, math.nan, 12.5, math.inf, 9.0, 1e12, -math.inf, 10.5]
     for value in values:
@@ -76,11 +82,7 @@ def test_parameters_are_validated_and_applied(ros):
                 Parameter("mean", value=math.nan), Parameter("input_topic", value="/elsewhere")):
         assert not node.set_parameters([bad])[0].successful, bad.name
     assert node.set_parameters([Parameter("process_variance", value=2.0)])[0].successful
-    predictions = ros.collect(LoadPrediction, "/t2/load_predictor/prediction")
-    source = ros.node("source2")
-    publisher = source.create_publisher(Float64, "/t2/load", 10)
-    ros.wait_for_match(source, "/t2/load_predictor/prediction", publishers=1, subscribers=1)
-    ros.wait_for_match(source, "/t2/load", subscribers=1)
+    publisher, predictions, _ = wired_source(ros, "/t2", Float64)
     publisher.publish(Float64(data=1.0))
     msg = wait_until(lambda: predictions and predictions[0], 10.0, what="a prediction")
     assert msg.model_w == 2.0 and msg.model_a == MODEL.a
@@ -95,12 +97,7 @@ def test_bad_input_field_is_refused_at_start(ros):
 def test_reset_when_measurement_stamps_go_back(ros):
     node = start_predictor(ros, "/t4", input_type="geometry_msgs/msg/WrenchStamped",
                            input_field="wrench.force.z")
-    predictions = ros.collect(LoadPrediction, "/t4/load_predictor/prediction")
-    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
-    source = ros.node("source4")
-    publisher = source.create_publisher(WrenchStamped, "/t4/load", 10)
-    ros.wait_for_match(source, "/t4/load", subscribers=1)
-    ros.wait_for_match(source, "/t4/load_predictor/prediction", publishers=1, subscribers=1)
+    publisher, predictions, diagnostics = wired_source(ros, "/t4", WrenchStamped)
     for sec, force in ((100, 1.0), (101, 2.0), (50, 3.0), (51, 4.0)):
         msg = WrenchStamped()
         msg.header.stamp = Time(sec=sec)
