@@ -1,0 +1,48 @@
+"""Roll-pitch-yaw rotations of seed 000 part 1, section 3: R = R_gamma R_beta R_alpha.
+
+The platform is rotated first about x (roll alpha), then about y (pitch beta), then about
+z (yaw gamma), all about the fixed base axes. Angles in rad; vectorized over leading axes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _axis_matrices(angle, axis: int):
+    c, s = np.cos(angle), np.sin(angle)
+    one, zero = np.ones_like(c), np.zeros_like(c)
+    if axis == 0:
+        rows = ((one, zero, zero), (zero, c, -s), (zero, s, c))
+    elif axis == 1:
+        rows = ((c, zero, s), (zero, one, zero), (-s, zero, c))
+    else:
+        rows = ((c, -s, zero), (s, c, zero), (zero, zero, one))
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def _axis_derivatives(angle, axis: int):
+    """d/d(angle) of the elementary rotation about ``axis``."""
+    c, s = np.cos(angle), np.sin(angle)
+    zero = np.zeros_like(c)
+    if axis == 0:
+        rows = ((zero, zero, zero), (zero, -s, -c), (zero, c, -s))
+    elif axis == 1:
+        rows = ((-s, zero, c), (zero, zero, zero), (-c, zero, -s))
+    else:
+        rows = ((-s, -c, zero), (c, -s, zero), (zero, zero, zero))
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def rotation_matrix(roll, pitch, yaw) -> np.ndarray:
+    """R = R_z(yaw) R_y(pitch) R_x(roll), shape (..., 3, 3)."""
+    roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, float) for a in (roll, pitch, yaw)))
+    return _axis_matrices(yaw, 2) @ _axis_matrices(pitch, 1) @ _axis_matrices(roll, 0)
+
+
+def rotation_derivatives(roll, pitch, yaw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(dR/droll, dR/dpitch, dR/dyaw), each of shape (..., 3, 3)."""
+    roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, float) for a in (roll, pitch, yaw)))
+    rx, ry, rz = _axis_matrices(roll, 0), _axis_matrices(pitch, 1), _axis_matrices(yaw, 2)
+    return (rz @ ry @ _axis_derivatives(roll, 0), rz @ _axis_derivatives(pitch, 1) @ rx,
+            _axis_derivatives(yaw, 2) @ ry @ rx)

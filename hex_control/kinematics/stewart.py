@@ -1,0 +1,301 @@
+"""Stewart-Gough 6-6 platform: inverse kinematics, the four constraint sets, TestPose and
+forward kinematics (seed 000 part 1, sections 3-4; FK by the Newton-Raphson steps of
+seed 001 section 2.1.2).
+
+Conventions: lengths in mm, angles in rad. A pose is the row (x, y, z, roll, pitch, yaw)
+of the tool point in the base frame, rotation R = R_z(yaw) R_y(pitch) R_x(roll). Every
+function takes poses of shape (6,) or (N, 6) and is vectorized over N.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
+from hex_control.kinematics.segments import segment_distance
+
+CONSTRAINT_SETS = ("I", "II", "III", "IV")  # strut length, platform joint, base joint, strut distance
+
+
+def _per_strut(value, name: str) -> np.ndarray:
+    array = np.broadcast_to(np.asarray(value, float), (6,)).copy()
+    if not np.all(np.isfinite(array)) or np.any(array <= 0):
+        raise ValueError(f"{name} must be positive and finite, got {value!r}")
+    return array
+
+
+@dataclass(frozen=True)
+class StewartGeometry:
+    """Joint coordinates and limits of a 6-6 Stewart-Gough platform (mm, rad).
+
+    ``platform_joints_mm`` are in the platform frame, whose origin is the tool point
+    when ``tool_offset_mm`` is zero; a tool offset moves the tool point in that frame.
+    The nominal strut directions (zero joint angles, seed section 3.2) are those at
+    ``home_pose``.
+    """
+
+    name: str
+    base_joints_mm: np.ndarray  # (6, 3)
+    platform_joints_mm: np.ndarray  # (6, 3)
+    strut_length_min_mm: float
+    strut_length_max_mm: float
+    platform_joint_max_rad: np.ndarray  # (6,)
+    base_joint_max_rad: np.ndarray  # (6,)
+    strut_pairs: tuple[tuple[int, int], ...]
+    strut_distance_min_mm: float
+    home_pose: np.ndarray  # (6,)
+    tool_offset_mm: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        for name in ("base_joints_mm", "platform_joints_mm"):
+            array = np.asarray(getattr(self, name), float)
+            if array.shape != (6, 3) or not np.all(np.isfinite(array)):
+                raise ValueError(f"{name} must be 6 finite points (6 x 3), got shape {array.shape}")
+            object.__setattr__(self, name, array)
+        if not 0 < self.strut_length_min_mm < self.strut_length_max_mm:
+            raise ValueError("need 0 < strut_length_min_mm < strut_length_max_mm")
+        object.__setattr__(self, "platform_joint_max_rad", _per_strut(self.platform_joint_max_rad,
+                                                                      "platform_joint_max_rad"))
+        object.__setattr__(self, "base_joint_max_rad", _per_strut(self.base_joint_max_rad, "base_joint_max_rad"))
+        for i, j in self.strut_pairs:
+            if not (0 <= i < 6 and 0 <= j < 6 and i != j):
+                raise ValueError(f"strut pair {(i, j)} must name two different struts 0..5")
+        home = np.asarray(self.home_pose, float)
+        tool = np.asarray(self.tool_offset_mm, float)
+        if home.shape != (6,) or tool.shape != (3,):
+            raise ValueError("home_pose must have 6 values and tool_offset_mm 3")
+        object.__setattr__(self, "home_pose", home)
+        object.__setattr__(self, "tool_offset_mm", tool)
+        home_struts = _strut_vectors(self, home[None])[0]
+        if np.any(np.linalg.norm(home_struts, axis=-1) < 1e-9):
+            raise ValueError("home_pose puts a platform joint on its base joint")
+        object.__setattr__(self, "_nominal_base", home_struts / np.linalg.norm(home_struts, axis=-1)[:, None])
+        # the platform joint's reference direction is fixed in the platform frame
+        r_home = rotation_matrix(*home[3:])
+        object.__setattr__(self, "_nominal_platform", self._nominal_base @ r_home)  # rows: R_home^T s
+
+    @property
+    def joints_from_tool_mm(self) -> np.ndarray:
+        """Platform joints relative to the tool point, in the platform frame."""
+        return self.platform_joints_mm - self.tool_offset_mm
+
+    @classmethod
+    def from_dict(cls, data: dict) -> StewartGeometry:
+        deg = math.radians
+        home = list(data.get("home_pose", [0, 0, 0, 0, 0, 0]))
+        return cls(
+            name=str(data.get("name", "stewart")),
+            base_joints_mm=np.array(data["base_joints_mm"], float),
+            platform_joints_mm=np.array(data["platform_joints_mm"], float),
+            strut_length_min_mm=float(data["strut_length_mm"][0]),
+            strut_length_max_mm=float(data["strut_length_mm"][1]),
+            platform_joint_max_rad=np.radians(data["platform_joint_max_deg"]),
+            base_joint_max_rad=np.radians(data["base_joint_max_deg"]),
+            strut_pairs=tuple(tuple(int(k) for k in pair) for pair in data.get("strut_pairs", [])),
+            strut_distance_min_mm=float(data.get("strut_distance_min_mm", 0.0)),
+            home_pose=np.array(home[:3] + [deg(a) for a in home[3:]], float),
+            tool_offset_mm=np.array(data.get("tool_offset_mm", [0, 0, 0]), float),
+        )
+
+    @classmethod
+    def from_yaml(cls, path) -> StewartGeometry:
+        data = yaml.safe_load(Path(path).read_text())
+        return cls.from_dict(data.get("machine", data))
+
+
+def as_poses(poses) -> np.ndarray:
+    """(N, 6) float array of poses; raises ValueError on a wrong shape or non-finite values."""
+    array = np.asarray(poses, float)
+    if array.ndim == 1:
+        array = array[None]
+    if array.ndim != 2 or array.shape[1] != 6:
+        raise ValueError(f"poses must have shape (6,) or (N, 6), got {np.shape(poses)}")
+    if not np.all(np.isfinite(array)):
+        raise ValueError("poses must be finite")
+    return array
+
+
+def _strut_vectors(geometry: StewartGeometry, poses: np.ndarray) -> np.ndarray:
+    """S_i = T + R P_i - B_i, shape (N, 6, 3) (seed section 3)."""
+    rotation = rotation_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
+    joints = np.einsum("nij,kj->nki", rotation, geometry.joints_from_tool_mm)
+    return poses[:, None, :3] + joints - geometry.base_joints_mm
+
+
+def strut_lengths(geometry: StewartGeometry, poses) -> np.ndarray:
+    """L_i = |T + R P_i - B_i| (mm), shape (N, 6): inverse kinematics (seed 3.1)."""
+    return np.linalg.norm(_strut_vectors(geometry, as_poses(poses)), axis=-1)
+
+
+@dataclass(frozen=True)
+class PoseCheck:
+    """Inverse kinematics and the four constraint sets for N poses (seed 3.1-3.3, TestPose 4.1).
+
+    Margins are limit minus value on the binding side, per set: positive = inside.
+    """
+
+    lengths_mm: np.ndarray  # (N, 6)
+    platform_joint_angles_rad: np.ndarray  # (N, 6)
+    base_joint_angles_rad: np.ndarray  # (N, 6)
+    strut_distances_mm: np.ndarray  # (N, pairs)
+    margins: np.ndarray  # (N, 4): mm, rad, rad, mm
+
+    @property
+    def satisfied(self) -> np.ndarray:
+        """(N, 4) bool: sets I-IV hold (I strictly, as L_min < L_i < L_max)."""
+        ok = self.margins > 0
+        ok[:, 3] = self.margins[:, 3] >= 0
+        return ok
+
+    @property
+    def reachable(self) -> np.ndarray:
+        return self.satisfied.all(axis=1)
+
+    def limiting_set(self) -> np.ndarray:
+        """Index 0..3 of the first violated set per pose (-1 where all hold)."""
+        violated = ~self.satisfied
+        return np.where(violated.any(axis=1), violated.argmax(axis=1), -1)
+
+
+def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Angle between unit vectors, accurate near 0 (atan2 of |u x v| and u . v)."""
+    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i", u, v))
+
+
+def check_poses(geometry: StewartGeometry, poses) -> PoseCheck:
+    """Strut lengths, joint angles and strut distances of N poses, with the margin to each set."""
+    poses = as_poses(poses)
+    struts = _strut_vectors(geometry, poses)
+    lengths = np.linalg.norm(struts, axis=-1)
+    units = struts / np.maximum(lengths, 1e-300)[..., None]
+    base_angles = _angle_between(units, geometry._nominal_base)
+    rotation = rotation_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
+    platform_reference = np.einsum("nij,kj->nki", rotation, geometry._nominal_platform)
+    platform_angles = _angle_between(units, platform_reference)
+    if geometry.strut_pairs:
+        i, j = np.array(geometry.strut_pairs).T
+        tops = struts + geometry.base_joints_mm  # platform joint positions
+        distances = segment_distance(geometry.base_joints_mm[i], tops[:, i],
+                                     geometry.base_joints_mm[j], tops[:, j])
+        distance_margin = distances.min(axis=1) - geometry.strut_distance_min_mm
+    else:
+        distances = np.zeros((len(poses), 0))
+        distance_margin = np.full(len(poses), np.inf)
+    margins = np.stack([
+        np.minimum(lengths - geometry.strut_length_min_mm, geometry.strut_length_max_mm - lengths).min(axis=1),
+        (geometry.platform_joint_max_rad - platform_angles).min(axis=1),
+        (geometry.base_joint_max_rad - base_angles).min(axis=1),
+        distance_margin,
+    ], axis=1)
+    return PoseCheck(lengths, platform_angles, base_angles, distances, margins)
+
+
+def test_pose(geometry: StewartGeometry, poses) -> np.ndarray:
+    """TestPose (seed 4.1): True where a pose satisfies all four constraint sets, shape (N,)."""
+    return check_poses(geometry, poses).reachable
+
+
+test_pose.__test__ = False  # not a pytest test, despite the seed's name
+
+
+def jacobian(geometry: StewartGeometry, poses) -> np.ndarray:
+    """dL/dq (N, 6, 6): rows struts, columns (x, y, z mm; roll, pitch, yaw rad).
+
+    dL_i/dT = s_i (unit strut vector); dL_i/dangle = s_i . (dR/dangle P_i).
+    """
+    poses = as_poses(poses)
+    struts = _strut_vectors(geometry, poses)
+    units = struts / np.linalg.norm(struts, axis=-1)[..., None]
+    derivatives = rotation_derivatives(poses[:, 3], poses[:, 4], poses[:, 5])
+    angular = [np.einsum("nki,nij,kj->nk", units, d, geometry.joints_from_tool_mm) for d in derivatives]
+    return np.concatenate([units, np.stack(angular, axis=-1)], axis=-1)
+
+
+class ForwardKinematicsError(ValueError):
+    """Newton-Raphson did not reach a pose: ``reason`` is 'no_convergence' or 'singular'."""
+
+    def __init__(self, reason: str, message: str):
+        super().__init__(message)
+        self.reason = reason
+
+
+@dataclass(frozen=True)
+class ForwardSolution:
+    poses: np.ndarray  # (N, 6)
+    iterations: np.ndarray  # (N,)
+    residual_mm: np.ndarray  # (N,) max |L(pose) - L|
+    converged: np.ndarray  # (N,) bool
+    singular: np.ndarray  # (N,) bool
+
+
+def forward_kinematics_batch(geometry: StewartGeometry, lengths_mm, initial_guess,
+                             tolerance_mm: float = 1e-9, max_iterations: int = 50,
+                             max_condition: float = 1e12) -> ForwardSolution:
+    """Poses from strut lengths by Newton-Raphson, seed 001 section 2.1.2 steps 1-4,
+    for N length sets at once: q <- q + dq with J(q) dq = L - L(q), from ``initial_guess``
+    (so the solution nearest the guess is found), until max |L(q) - L| < tolerance_mm.
+    A step that does not reduce the residual is halved (up to 10 times).
+    """
+    target = np.asarray(lengths_mm, float).reshape(-1, 6)
+    if not np.all(np.isfinite(target)) or np.any(target <= 0):
+        raise ValueError("strut lengths must be positive and finite")
+    q = as_poses(initial_guess).copy()
+    if len(q) == 1 and len(target) > 1:
+        q = np.repeat(q, len(target), axis=0)
+    if len(q) != len(target):
+        raise ValueError(f"{len(target)} length sets but {len(q)} initial guesses")
+    n = len(target)
+    iterations = np.zeros(n, int)
+    converged = np.zeros(n, bool)
+    singular = np.zeros(n, bool)
+    residual = np.abs(strut_lengths(geometry, q) - target).max(axis=1)
+    active = residual >= tolerance_mm
+    converged[~active] = True
+    for _ in range(max_iterations):
+        if not active.any():
+            break
+        idx = np.flatnonzero(active)
+        jac = jacobian(geometry, q[idx])
+        bad = np.linalg.cond(jac) > max_condition
+        singular[idx[bad]] = True
+        active[idx[bad]] = False
+        idx, jac = idx[~bad], jac[~bad]
+        if idx.size == 0:
+            break
+        error = target[idx] - strut_lengths(geometry, q[idx])
+        step = np.linalg.solve(jac, error[..., None])[..., 0]
+        scale = np.ones(idx.size)
+        for _ in range(10):
+            trial = q[idx] + scale[:, None] * step
+            new_residual = np.abs(strut_lengths(geometry, trial) - target[idx]).max(axis=1)
+            worse = new_residual > residual[idx]
+            if not worse.any():
+                break
+            scale[worse] *= 0.5
+        q[idx] = trial
+        residual[idx] = new_residual
+        iterations[idx] += 1
+        done = new_residual < tolerance_mm
+        converged[idx[done]] = True
+        active[idx[done]] = False
+    return ForwardSolution(q, iterations, residual, converged, singular)
+
+
+def forward_kinematics(geometry: StewartGeometry, lengths_mm, initial_guess=None,
+                       tolerance_mm: float = 1e-9, max_iterations: int = 50) -> tuple[np.ndarray, int, float]:
+    """One pose (6,) from six strut lengths; raises ForwardKinematicsError rather than
+    return a pose that does not reproduce the lengths. Returns (pose, iterations, residual_mm)."""
+    guess = geometry.home_pose if initial_guess is None else initial_guess
+    solution = forward_kinematics_batch(geometry, lengths_mm, guess, tolerance_mm, max_iterations)
+    if solution.singular[0]:
+        raise ForwardKinematicsError("singular", "the Jacobian is singular at an iterate")
+    if not solution.converged[0]:
+        raise ForwardKinematicsError(
+            "no_convergence", f"no convergence in {max_iterations} iterations "
+                              f"(residual {solution.residual_mm[0]:.3g} mm)")
+    return solution.poses[0], int(solution.iterations[0]), float(solution.residual_mm[0])
