@@ -1,0 +1,189 @@
+"""3-PRU parallel head of seed 001 (sections 2.1, 4.1-4.2): kinematics.
+
+Three vertical rails at radius R and angles theta_i carry sliders at heights L_i; a
+rocker of length l joins each slider through a revolute joint (axis tangent to the
+circle) to a platform joint b_i at radius r. The platform's free coordinates are
+q = (z, alpha, beta) in mm and rad; its parasitic motions (x, y, gamma) follow from the
+revolute joints, which keep each rocker -- hence platform joint i -- in the vertical
+plane through rail i:  n_i . P_i = 0,  n_i = (-sin theta_i, cos theta_i, 0).
+
+With P_i = (x, y, z) + R b_i, R = R_z(gamma) R_y(beta) R_x(alpha) (R_z leaves the
+z-component unchanged), the slider height is seed eq. of 2.1.1:
+
+    L_i = z - r cos(theta_i) sin(beta) + r sin(theta_i) sin(alpha) cos(beta)
+          - sqrt(l^2 - S_ix^2 - S_iy^2),      S_i = P_i - (rail i at height L_i)
+
+FK is Newton-Raphson with the analytic Jacobian (seed 2.1.2, steps 1-4).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
+
+_INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
+_PARASITIC = [0, 1, 5]  # x, y, gamma
+
+
+@dataclass(frozen=True)
+class Pru3Geometry:
+    """Seed 001 section 4.2: R = 180 mm, r = 120 mm, l = 150 mm, rails at 0/120/240 deg,
+    stroke 0..100 mm, tilts within +-30 deg (section 4.1)."""
+
+    rail_radius_mm: float = 180.0
+    platform_radius_mm: float = 120.0
+    rocker_length_mm: float = 150.0
+    rail_angles_rad: tuple = (0.0, 2 * math.pi / 3, 4 * math.pi / 3)
+    stroke_mm: tuple = (0.0, 100.0)
+    tilt_max_rad: float = math.radians(30.0)
+
+    def __post_init__(self):
+        if not (self.rail_radius_mm > 0 and self.platform_radius_mm > 0 and self.rocker_length_mm > 0):
+            raise ValueError("radii and rocker length must be positive")
+        if len(self.rail_angles_rad) != 3 or not self.stroke_mm[0] < self.stroke_mm[1]:
+            raise ValueError("need three rail angles and stroke (min < max)")
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Pru3Geometry:
+        return cls(float(data.get("rail_radius_mm", 180.0)), float(data.get("platform_radius_mm", 120.0)),
+                   float(data.get("rocker_length_mm", 150.0)),
+                   tuple(math.radians(a) for a in data.get("rail_angles_deg", (0.0, 120.0, 240.0))),
+                   tuple(float(v) for v in data.get("stroke_mm", (0.0, 100.0))),
+                   math.radians(float(data.get("tilt_max_deg", 30.0))))
+
+    @classmethod
+    def from_yaml(cls, path) -> Pru3Geometry:
+        data = yaml.safe_load(Path(path).read_text())
+        return cls.from_dict(data.get("machine", data))
+
+    @property
+    def platform_joints_mm(self) -> np.ndarray:
+        """b_i in the platform frame (3, 3); seed: b_1 = (120, 0, 0), b_2 = (-60, 103.923, 0)..."""
+        a = np.array(self.rail_angles_rad)
+        return self.platform_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1)
+
+    @property
+    def rails_mm(self) -> np.ndarray:
+        """Rail foot points R_i (3, 3); seed: R_1 = (180, 0, 0), R_2 = (-90, 155.885, 0)..."""
+        a = np.array(self.rail_angles_rad)
+        return self.rail_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1)
+
+    @property
+    def plane_normals(self) -> np.ndarray:
+        a = np.array(self.rail_angles_rad)
+        return np.stack([-np.sin(a), np.cos(a), np.zeros(3)], axis=1)
+
+
+def _as_q(q) -> np.ndarray:
+    array = np.asarray(q, float)
+    array = array[None] if array.ndim == 1 else array
+    if array.ndim != 2 or array.shape[1] != 3 or not np.all(np.isfinite(array)):
+        raise ValueError(f"q must be finite (z_mm, alpha_rad, beta_rad) rows, got shape {np.shape(q)}")
+    return array
+
+
+def _joints(geometry: Pru3Geometry, full: np.ndarray) -> np.ndarray:
+    """P_i = p + R b_i for full coordinates (N, 6) -> (N, 3, 3)."""
+    rotation = rotation_matrix(full[:, 3], full[:, 4], full[:, 5])
+    return full[:, None, :3] + np.einsum("nij,kj->nki", rotation, geometry.platform_joints_mm)
+
+
+def _joint_jacobians(geometry: Pru3Geometry, full: np.ndarray) -> np.ndarray:
+    """dP_i/du (N, 3, 3, 6) for u = (x, y, z, alpha, beta, gamma)."""
+    n = len(full)
+    derivatives = rotation_derivatives(full[:, 3], full[:, 4], full[:, 5])
+    out = np.zeros((n, 3, 3, 6))
+    out[:, :, :, :3] = np.eye(3)
+    for k, d in enumerate(derivatives):
+        out[:, :, :, 3 + k] = np.einsum("nij,kj->nki", d, geometry.platform_joints_mm)
+    return out
+
+
+def parasitic_motion(geometry: Pru3Geometry, q, tolerance: float = 1e-12) -> np.ndarray:
+    """Full coordinates (x, y, z, alpha, beta, gamma) (N, 6): (x, y, gamma) solved from the
+    three plane constraints n_i . P_i = 0 by Newton's method (a few iterations)."""
+    q = _as_q(q)
+    full = np.zeros((len(q), 6))
+    full[:, _INDEPENDENT] = q
+    normals = geometry.plane_normals
+    for _ in range(30):
+        residual = np.einsum("ki,nki->nk", normals, _joints(geometry, full))
+        if np.max(np.abs(residual)) < tolerance * geometry.platform_radius_mm:
+            break
+        jac = np.einsum("ki,nkiu->nku", normals, _joint_jacobians(geometry, full))[:, :, _PARASITIC]
+        full[:, _PARASITIC] -= np.linalg.solve(jac, residual[..., None])[..., 0]
+    return full
+
+
+@dataclass(frozen=True)
+class Pru3Pose:
+    full: np.ndarray  # (N, 6) x, y, z mm; alpha, beta, gamma rad
+    joints_mm: np.ndarray  # (N, 3, 3) platform joints P_i
+    horizontal_mm: np.ndarray  # (N, 3, 2) S_ix, S_iy
+    lengths_mm: np.ndarray  # (N, 3) L_i
+    reachable: np.ndarray  # (N,) stroke, tilt and rocker geometry within limits
+
+
+def inverse_kinematics(geometry: Pru3Geometry, q) -> Pru3Pose:
+    """Slider positions L_i (mm) for platform coordinates q = (z, alpha, beta), shape (N, 3)."""
+    full = parasitic_motion(geometry, q)
+    joints = _joints(geometry, full)
+    horizontal = joints[..., :2] - geometry.rails_mm[:, :2]
+    under = geometry.rocker_length_mm**2 - np.sum(horizontal**2, axis=-1)
+    lengths = joints[..., 2] - np.sqrt(np.maximum(under, 0.0))
+    low, high = geometry.stroke_mm
+    reachable = ((under > 0).all(axis=1) & ((lengths >= low) & (lengths <= high)).all(axis=1)
+                 & (np.abs(full[:, 3:5]) <= geometry.tilt_max_rad).all(axis=1))
+    return Pru3Pose(full, joints, horizontal, np.where(under > 0, lengths, np.nan), reachable)
+
+
+def velocity_jacobian(geometry: Pru3Geometry, q) -> np.ndarray:
+    """J_p (N, 3, 3) with dL/dt = J_p dq/dt (seed 2.1.1), parasitic motion included:
+    dL_i = [S_ix/w_i, S_iy/w_i, 1] . dP_i, w_i = sqrt(l^2 - S_ix^2 - S_iy^2), and the
+    constraints give d(x, y, gamma) = -C_d^-1 C_q dq (implicit function theorem)."""
+    pose = inverse_kinematics(geometry, q)
+    joint_jac = _joint_jacobians(geometry, pose.full)
+    w = np.sqrt(geometry.rocker_length_mm**2 - np.sum(pose.horizontal_mm**2, axis=-1))
+    row = np.concatenate([pose.horizontal_mm / w[..., None], np.ones(w.shape + (1,))], axis=-1)
+    a = np.einsum("nki,nkiu->nku", row, joint_jac)
+    c = np.einsum("ki,nkiu->nku", geometry.plane_normals, joint_jac)
+    dependent = -np.linalg.solve(c[:, :, _PARASITIC], c[:, :, _INDEPENDENT])
+    return a[:, :, _INDEPENDENT] + a[:, :, _PARASITIC] @ dependent
+
+
+def slider_accelerations(geometry: Pru3Geometry, q, q_dot, q_ddot, step: float = 1e-5) -> np.ndarray:
+    """d2L/dt2 = J_p q_ddot + (dJ_p/dt) q_dot (N, 3); dJ_p/dt by a central difference of
+    J_p along q_dot (seed 2.1.1, acceleration analysis)."""
+    q, q_dot, q_ddot = _as_q(q), _as_q(q_dot), _as_q(q_ddot)
+    jac = velocity_jacobian(geometry, q)
+    jac_dot = (velocity_jacobian(geometry, q + step * q_dot) - velocity_jacobian(geometry, q - step * q_dot)) / (2 * step)
+    return np.einsum("nij,nj->ni", jac, q_ddot) + np.einsum("nij,nj->ni", jac_dot, q_dot)
+
+
+def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0, 0.0, 0.0),
+                       tolerance_mm: float = 1e-10, max_iterations: int = 50) -> tuple[np.ndarray, int]:
+    """q = (z, alpha, beta) from slider positions by Newton-Raphson (seed 2.1.2):
+    dq = J_p^-1 (L - L(q)), q <- q + dq, until max |L(q) - L| < tolerance_mm.
+    Returns (q, iterations); raises ValueError when it does not converge."""
+    target = np.asarray(lengths_mm, float).reshape(3)
+    if not np.all(np.isfinite(target)):
+        raise ValueError("slider positions must be finite")
+    q = _as_q(initial_guess)[0].copy()
+    for iteration in range(1, max_iterations + 1):
+        pose = inverse_kinematics(geometry, q)
+        error = target - pose.lengths_mm[0]
+        if not np.all(np.isfinite(error)):
+            raise ValueError(f"FK left the rocker geometry at q = {q} (no real solution)")
+        if np.max(np.abs(error)) < tolerance_mm:
+            return q, iteration - 1
+        jac = velocity_jacobian(geometry, q)[0]
+        if np.linalg.cond(jac) > 1e12:
+            raise ValueError(f"singular Jacobian at q = {q}")
+        q = q + np.linalg.solve(jac, error)
+    raise ValueError(f"FK did not converge in {max_iterations} iterations")
