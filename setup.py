@@ -10,6 +10,7 @@ PACKAGE = "hex_control"
 NODES = {
     "load_predictor": "hex_control.nodes.load_predictor:main",
     "synthetic_load": "hex_control.nodes.synthetic_load:main",
+    "kinematics": "hex_control.nodes.kinematics:main",
 }
 
 setup(

@@ -46,3 +46,20 @@ def rotation_derivatives(roll, pitch, yaw) -> tuple[np.ndarray, np.ndarray, np.n
     rx, ry, rz = _axis_matrices(roll, 0), _axis_matrices(pitch, 1), _axis_matrices(yaw, 2)
     return (rz @ ry @ _axis_derivatives(roll, 0), rz @ _axis_derivatives(pitch, 1) @ rx,
             _axis_derivatives(yaw, 2) @ ry @ rx)
+
+
+def rpy_from_quaternion(x, y, z, w) -> np.ndarray:
+    """(roll, pitch, yaw) rad of a unit quaternion, for R = R_z(yaw) R_y(pitch) R_x(roll)."""
+    roll = np.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = np.arcsin(np.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return np.array([roll, pitch, yaw], float)
+
+
+def quaternion_from_rpy(roll, pitch, yaw) -> np.ndarray:
+    """Unit quaternion (x, y, z, w) of R = R_z(yaw) R_y(pitch) R_x(roll)."""
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    return np.array([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+                     cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy], float)

@@ -1,0 +1,285 @@
+"""Node ``kinematics``: IK / FK / TestPose / workspace services and the setpoint stream.
+
+Services (hex_control_msgs/srv), all answering with a KinematicsErrorCode:
+    ~/inverse_kinematics   ~/test_pose   ~/forward_kinematics   ~/compute_workspace
+Stream:
+    /motion/setpoint (geometry_msgs/PoseStamped, m + quaternion, REP 103)  in
+    /plant/strut_command (sensor_msgs/JointState: strut names, lengths in m)  out
+    An unreachable or malformed setpoint is refused: nothing published, logged, counted.
+
+Machine from the ``machine_file`` parameter (``config/machines/*.yaml``): ``stewart``
+or ``pru3``. For the 3-PRU a pose means (z, roll = alpha, pitch = beta); its x, y and yaw
+are the mechanism's parasitic motion and are ignored on input, reported by FK.
+
+compute_workspace runs on a companion node with its own executor thread, so a long
+workspace request never holds up the other services or the stream (rclpy's
+multi-threaded executor proved too slow for the control-rate stream here).
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from hex_control.config import config_file
+from hex_control.kinematics import Pru3Geometry, load_machine
+from hex_control.kinematics import pru3 as pru3_kinematics
+from hex_control.kinematics.rotation import rpy_from_quaternion
+from hex_control.kinematics.stewart import (CONSTRAINT_SETS, ForwardKinematicsError, check_poses,
+                                            forward_kinematics)
+from hex_control.kinematics.workspace import compute_workspace, cross_section
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPose
+from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
+
+MAX_POSES = 100_000  # per request
+MAX_SECTORS = 50_000
+Code = KinematicsErrorCode
+
+
+def _pose_rows(poses) -> np.ndarray:
+    return np.array([[p.x_mm, p.y_mm, p.z_mm, p.roll_rad, p.pitch_rad, p.yaw_rad] for p in poses], float)
+
+
+def _tool_pose(row) -> ToolPose:
+    return ToolPose(x_mm=float(row[0]), y_mm=float(row[1]), z_mm=float(row[2]),
+                    roll_rad=float(row[3]), pitch_rad=float(row[4]), yaw_rad=float(row[5]))
+
+
+class KinematicsCore:
+    """Request handling shared by the node and its workspace companion: message <-> library."""
+
+    def __init__(self, machine, document: dict):
+        self.machine = machine
+        self.document = document
+        self.is_pru3 = isinstance(machine, Pru3Geometry)
+        self.strut_count = 3 if self.is_pru3 else 6
+
+    def reports(self, rows: np.ndarray) -> list[ConstraintReport]:
+        if self.is_pru3:
+            pose = pru3_kinematics.inverse_kinematics(self.machine, rows[:, [2, 3, 4]])
+            low, high = self.machine.stroke_mm
+            lengths = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
+            stroke = np.minimum(lengths - low, high - lengths).min(axis=1)
+            tilt = self.machine.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
+            out = []
+            for k in range(len(rows)):
+                report = ConstraintReport(reachable=bool(pose.reachable[k]),
+                                          strut_lengths_ok=bool(stroke[k] >= 0), platform_joints_ok=bool(tilt[k] >= 0),
+                                          base_joints_ok=True, strut_distances_ok=True,
+                                          strut_length_margin_mm=float(stroke[k]) if math.isfinite(stroke[k]) else -1e9,
+                                          platform_joint_margin_rad=float(tilt[k]),
+                                          base_joint_margin_rad=math.inf, strut_distance_margin_mm=math.inf)
+                report.strut_lengths_mm = np.nan_to_num(pose.lengths_mm[k], nan=0.0).tolist()
+                out.append(report)
+            return out
+        check = check_poses(self.machine, rows)
+        ok = check.satisfied
+        return [ConstraintReport(
+            reachable=bool(ok[k].all()), strut_lengths_ok=bool(ok[k, 0]), platform_joints_ok=bool(ok[k, 1]),
+            base_joints_ok=bool(ok[k, 2]), strut_distances_ok=bool(ok[k, 3]),
+            strut_length_margin_mm=float(check.margins[k, 0]), platform_joint_margin_rad=float(check.margins[k, 1]),
+            base_joint_margin_rad=float(check.margins[k, 2]), strut_distance_margin_mm=float(check.margins[k, 3]),
+            strut_lengths_mm=check.lengths_mm[k].tolist(),
+            platform_joint_angles_rad=check.platform_joint_angles_rad[k].tolist(),
+            base_joint_angles_rad=check.base_joint_angles_rad[k].tolist()) for k in range(len(rows))]
+
+    def poses_or_error(self, poses) -> tuple[np.ndarray | None, str]:
+        if len(poses) > MAX_POSES:
+            return None, f"{len(poses)} poses exceed the limit of {MAX_POSES} per request"
+        rows = _pose_rows(poses).reshape(-1, 6)
+        if not np.all(np.isfinite(rows)):
+            return None, "non-finite pose field"
+        return rows, ""
+
+    def workspace(self, request, response, logger):
+        if self.is_pru3:
+            response.error_code.val = Code.UNSUPPORTED_MACHINE
+            return response
+        orientation = np.array([request.roll_rad, request.pitch_rad, request.yaw_rad], float)
+        heights = np.asarray(request.slice_heights_mm, float)
+        sectors = request.sector_count or 1250
+        eps = request.resolution_mm or 1.0
+        if (not np.all(np.isfinite(orientation)) or not np.all(np.isfinite(heights)) or sectors > MAX_SECTORS
+                or sectors < 18 or not (0.01 <= eps <= 100.0) or np.any(np.abs(orientation) > math.pi)):
+            response.error_code.val = Code.INVALID_INPUT
+            return response
+        n_phi = max(3, round(math.sqrt(sectors / 2)))
+        cube = self.document.get("workspace", {}).get("search_cube_mm")
+        if cube is None:
+            home = self.machine.home_pose[:3]
+            cube = [(c - 1000.0, c + 1000.0) for c in home]
+        try:
+            result = compute_workspace(self.machine, orientation, cube, 2 * n_phi, n_phi, eps)
+        except ValueError as exc:  # e.g. nothing reachable at this orientation
+            logger.warning(f"workspace: {exc}")
+            response.error_code.val = Code.UNREACHABLE
+            return response
+        points = result.boundary_mm.reshape(-1, 3)
+        response.volume_mm3 = result.volume_mm3
+        response.center = _tool_pose([*result.center_mm, *orientation])
+        response.boundary_x_mm, response.boundary_y_mm, response.boundary_z_mm = (points[:, k].tolist() for k in range(3))
+        response.limiting_constraint = [CONSTRAINT_SETS[s] if s >= 0 else "" for s in result.limiting_set.ravel()]
+        response.slice_area_mm2 = [cross_section(self.machine, orientation, z, result.center_mm[:2], 180, eps)[0]
+                                   for z in heights]
+        response.error_code.val = Code.SUCCESS
+        return response
+
+
+class KinematicsNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("kinematics", **kwargs)
+        self.declare_parameter("machine_file", str(config_file("machines/nist_ingersoll.yaml")),
+                               ParameterDescriptor(description="machine YAML (config/machines/)", read_only=True))
+        self.declare_parameter("quaternion_tolerance", 1e-3, ParameterDescriptor(
+            description="|1 - |q|| above which a setpoint orientation is malformed", read_only=True))
+        self.core = KinematicsCore(*load_machine(self.get_parameter("machine_file").value))
+        self.diagnostics = Diagnostics(self)
+        self.diagnostics.set("machine", getattr(self.core.machine, "name", "pru3"))
+        self.create_service(InverseKinematics, "~/inverse_kinematics", self._on_inverse)
+        self.create_service(TestPose, "~/test_pose", self._on_test_pose)
+        self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
+        self._command = self.create_publisher(JointState, "/plant/strut_command", 10)
+        self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 10)
+        self._names = [f"strut_{i}" for i in range(self.core.strut_count)]
+
+    def _on_inverse(self, request, response):
+        rows, problem = self.core.poses_or_error(request.poses)
+        if rows is None:
+            self.diagnostics.count("rejected_requests")
+            self.get_logger().warning(f"inverse_kinematics refused: {problem}")
+            response.error_code.val = Code.INVALID_INPUT
+            return response
+        response.reports = self.core.reports(rows) if len(rows) else []
+        response.error_code.val = Code.SUCCESS
+        return response
+
+    def _on_test_pose(self, request, response):
+        rows, problem = self.core.poses_or_error(request.poses)
+        response.first_unreachable_index = -1
+        if rows is None:
+            self.diagnostics.count("rejected_requests")
+            self.get_logger().warning(f"test_pose refused: {problem}")
+            response.error_code.val = Code.INVALID_INPUT
+            return response
+        response.reports = self.core.reports(rows) if len(rows) else []
+        unreachable = [k for k, r in enumerate(response.reports) if not r.reachable]
+        response.first_unreachable_index = unreachable[0] if unreachable else -1
+        response.error_code.val = Code.UNREACHABLE if unreachable else Code.SUCCESS
+        return response
+
+    def _on_forward(self, request, response):
+        lengths = np.asarray(request.strut_lengths_mm, float)
+        guess = _pose_rows([request.initial_guess])[0]
+        if (lengths.shape != (self.core.strut_count,) or not np.all(np.isfinite(lengths))
+                or not np.all(np.isfinite(guess)) or request.tolerance_mm < 0):
+            self.diagnostics.count("rejected_requests")
+            response.error_code.val = Code.INVALID_INPUT
+            return response
+        tolerance = request.tolerance_mm or 1e-9
+        iterations = request.max_iterations or 50
+        try:
+            if self.core.is_pru3:
+                start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
+                q, used = pru3_kinematics.forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
+                full = pru3_kinematics.inverse_kinematics(self.core.machine, q).full[0]
+                pose, residual = full, float(np.max(np.abs(
+                    pru3_kinematics.inverse_kinematics(self.core.machine, q).lengths_mm[0] - lengths)))
+            else:
+                start = guess if np.any(guess) else None
+                pose, used, residual = forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
+        except ForwardKinematicsError as exc:
+            response.error_code.val = Code.SINGULAR if exc.reason == "singular" else Code.NO_CONVERGENCE
+            return response
+        except ValueError as exc:
+            self.get_logger().info(f"forward_kinematics: {exc}")
+            response.error_code.val = Code.SINGULAR if "singular" in str(exc) else Code.NO_CONVERGENCE
+            return response
+        response.pose = _tool_pose(pose)
+        response.iterations = int(used)
+        response.residual_mm = float(residual)
+        response.error_code.val = Code.SUCCESS
+        return response
+
+    def _on_setpoint(self, msg: PoseStamped) -> None:
+        p, q = msg.pose.position, msg.pose.orientation
+        values = np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], float)
+        tolerance = self.get_parameter("quaternion_tolerance").value
+        if not np.all(np.isfinite(values)) or abs(1.0 - np.linalg.norm(values[3:])) > tolerance:
+            self.diagnostics.count("rejected_malformed")
+            self.get_logger().warning("malformed setpoint refused (non-finite or non-unit quaternion)",
+                                      throttle_duration_sec=1.0)
+            return
+        row = np.concatenate([values[:3] * 1000.0, rpy_from_quaternion(*values[3:])])
+        report = self.core.reports(row[None])[0]
+        if not report.reachable:
+            self.diagnostics.count("refused_unreachable")
+            self.get_logger().warning(f"unreachable setpoint refused: {row.round(3).tolist()}",
+                                      throttle_duration_sec=1.0)
+            return
+        command = JointState()
+        command.header.stamp = msg.header.stamp
+        command.header.frame_id = "base"
+        command.name = self._names
+        command.position = [length / 1000.0 for length in report.strut_lengths_mm]
+        self._command.publish(command)
+        self.diagnostics.count("commands")
+
+
+class WorkspaceService(Node):
+    """Companion node: serves <kinematics node>/compute_workspace from its own thread."""
+
+    def __init__(self, core: KinematicsCore, service_name: str, **kwargs):
+        super().__init__("kinematics_workspace", **kwargs)
+        self.core = core
+        self.create_service(ComputeWorkspace, service_name, self._on_workspace)
+
+    def _on_workspace(self, request, response):
+        return self.core.workspace(request, response, self.get_logger())
+
+
+def _spin_until_shutdown(executor) -> None:
+    try:
+        executor.spin()
+    except ExternalShutdownException:
+        pass
+
+
+def main(args=None) -> int:
+    import sys
+
+    import rclpy
+
+    rclpy.init(args=sys.argv if args is None else args)
+    nodes, executors = [], []
+    try:
+        node = KinematicsNode()
+        companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
+                                     namespace=node.get_namespace())
+        nodes = [node, companion]
+        executors = [SingleThreadedExecutor(), SingleThreadedExecutor()]
+        for executor, each in zip(executors, nodes):
+            executor.add_node(each)
+        worker = threading.Thread(target=_spin_until_shutdown, args=(executors[1],), daemon=True)
+        worker.start()
+        executors[0].spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for executor in executors:
+            executor.shutdown(timeout_sec=1.0)
+        for each in nodes:
+            each.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    main()
