@@ -16,3 +16,11 @@ def test_predictor_benchmark_prints_figures_and_ratio(capsys):
 def test_unknown_case_is_refused(capsys):
     assert run_benchmarks(["nope"]) == 2
     assert "available" in capsys.readouterr().out
+
+
+def test_kinematics_benchmarks_print_their_figures(capsys):
+    assert run_benchmarks(["ik", "workspace", "fk"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"vectorized check_poses:\s*[\d,]+ poses/s", out)
+    assert re.search(r"1200-sector map .*: \d+ ms", out)
+    assert re.search(r"batch Newton-Raphson:\s*[\d,]+ solves/s, mean [\d.]+ iterations, converged 100.0%", out)

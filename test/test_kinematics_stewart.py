@@ -118,6 +118,18 @@ def test_vectorized_check_equals_per_pose_loop():
         assert single.reachable[0] == batch.reachable[k]
 
 
+def test_strut_distances_are_segment_distances_of_the_struts():
+    """check_poses computes set IV from the strut vectors it already has; it must equal
+    segment_distance between base joint and platform joint of each configured pair."""
+    poses = random_reachable_poses(200, np.random.default_rng(5), spread=(900, 900, 700, 0.4, 0.4, 0.4))
+    check = check_poses(NIST, poses)
+    rotation = rotation_matrix(*poses[:, 3:].T)
+    tops = poses[:, None, :3] + np.einsum("nij,kj->nki", rotation, NIST.joints_from_tool_mm)
+    for column, (i, j) in enumerate(NIST.strut_pairs):
+        expected = segment_distance(NIST.base_joints_mm[i], tops[:, i], NIST.base_joints_mm[j], tops[:, j])
+        np.testing.assert_allclose(check.strut_distances_mm[:, column], expected, rtol=1e-10)
+
+
 def test_jacobian_matches_finite_differences():
     poses = random_reachable_poses(20, np.random.default_rng(2))
     analytic = jacobian(NIST, poses)

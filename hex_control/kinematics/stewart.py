@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
-from hex_control.kinematics.segments import segment_distance
+from hex_control.kinematics.segments import closest_parameters
 
 CONSTRAINT_SETS = ("I", "II", "III", "IV")  # strut length, platform joint, base joint, strut distance
 
@@ -162,26 +162,54 @@ class PoseCheck:
         return np.where(violated.any(axis=1), violated.argmax(axis=1), -1)
 
 
-def _angle_between(u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Angle between unit vectors, accurate near 0 (atan2 of |u x v| and u . v)."""
-    return np.arctan2(np.linalg.norm(np.cross(u, v), axis=-1), np.einsum("...i,...i", u, v))
+_CHUNK = 8192  # poses per block: keeps the (N, 6) temporaries in cache
 
 
-def check_poses(geometry: StewartGeometry, poses) -> PoseCheck:
-    """Strut lengths, joint angles and strut distances of N poses, with the margin to each set."""
-    poses = as_poses(poses)
-    struts = _strut_vectors(geometry, poses)
-    lengths = np.linalg.norm(struts, axis=-1)
-    units = struts / np.maximum(lengths, 1e-300)[..., None]
-    base_angles = _angle_between(units, geometry._nominal_base)
-    rotation = rotation_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
-    platform_reference = np.einsum("nij,kj->nki", rotation, geometry._nominal_platform)
-    platform_angles = _angle_between(units, platform_reference)
+def _rotation_entries(poses: np.ndarray):
+    """R = R_z R_y R_x entries (r00, r01, ..., r22), each (N, 1) for broadcasting."""
+    ca, sa = np.cos(poses[:, 3:4]), np.sin(poses[:, 3:4])
+    cb, sb = np.cos(poses[:, 4:5]), np.sin(poses[:, 4:5])
+    cg, sg = np.cos(poses[:, 5:6]), np.sin(poses[:, 5:6])
+    return (cg * cb, cg * sb * sa - sg * ca, cg * sb * ca + sg * sa,
+            sg * cb, sg * sb * sa + cg * ca, sg * sb * ca - cg * sa,
+            -sb, cb * sa, cb * ca)
+
+
+def _rotate(r, v: np.ndarray):
+    """Components of R v for fixed vectors v (6, 3) -> three (N, 6) arrays."""
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    return (r[0] * x + r[1] * y + r[2] * z, r[3] * x + r[4] * y + r[5] * z, r[6] * x + r[7] * y + r[8] * z)
+
+
+def _check_block(geometry: StewartGeometry, poses: np.ndarray):
+    r = _rotation_entries(poses)
+    jx, jy, jz = _rotate(r, geometry.joints_from_tool_mm)
+    tops = (poses[:, 0:1] + jx, poses[:, 1:2] + jy, poses[:, 2:3] + jz)  # platform joints (N, 6) each
+    base = geometry.base_joints_mm
+    sx, sy, sz = tops[0] - base[:, 0], tops[1] - base[:, 1], tops[2] - base[:, 2]
+    lengths = np.sqrt(sx * sx + sy * sy + sz * sz)
+    inverse = 1.0 / np.maximum(lengths, 1e-300)
+    nominal = geometry._nominal_base
+    cos_base = (sx * nominal[:, 0] + sy * nominal[:, 1] + sz * nominal[:, 2]) * inverse
+    px, py, pz = _rotate(r, geometry._nominal_platform)
+    cos_platform = (sx * px + sy * py + sz * pz) * inverse
+    # arccos is accurate to ~1e-8 rad near 0, ample against joint limits of tens of degrees
+    base_angles = np.arccos(np.clip(cos_base, -1.0, 1.0))
+    platform_angles = np.arccos(np.clip(cos_platform, -1.0, 1.0))
     if geometry.strut_pairs:
+        # segments from base joint B to platform joint: d = strut vector S, |d|^2 = L^2,
+        # and r = B_i - B_j is fixed, so only the dot products with S are per pose
         i, j = np.array(geometry.strut_pairs).T
-        tops = struts + geometry.base_joints_mm  # platform joint positions
-        distances = segment_distance(geometry.base_joints_mm[i], tops[:, i],
-                                     geometry.base_joints_mm[j], tops[:, j])
+        r = base[i] - base[j]
+        s1, s2 = (sx[:, i], sy[:, i], sz[:, i]), (sx[:, j], sy[:, j], sz[:, j])
+        b = s1[0] * s2[0] + s1[1] * s2[1] + s1[2] * s2[2]
+        c = s1[0] * r[:, 0] + s1[1] * r[:, 1] + s1[2] * r[:, 2]
+        f = s2[0] * r[:, 0] + s2[1] * r[:, 1] + s2[2] * r[:, 2]
+        a, e = lengths[:, i] ** 2, lengths[:, j] ** 2
+        u, v = closest_parameters(a.ravel(), b.ravel(), c.ravel(), e.ravel(), f.ravel())
+        u, v = u.reshape(a.shape), v.reshape(a.shape)
+        gap = [r[:, k] + s1[k] * u - s2[k] * v for k in range(3)]
+        distances = np.sqrt(gap[0] ** 2 + gap[1] ** 2 + gap[2] ** 2)
         distance_margin = distances.min(axis=1) - geometry.strut_distance_min_mm
     else:
         distances = np.zeros((len(poses), 0))
@@ -192,7 +220,19 @@ def check_poses(geometry: StewartGeometry, poses) -> PoseCheck:
         (geometry.base_joint_max_rad - base_angles).min(axis=1),
         distance_margin,
     ], axis=1)
-    return PoseCheck(lengths, platform_angles, base_angles, distances, margins)
+    return lengths, platform_angles, base_angles, distances, margins
+
+
+def check_poses(geometry: StewartGeometry, poses) -> PoseCheck:
+    """Strut lengths, joint angles and strut distances of N poses, with the margin to each set.
+
+    Base joint angle: between the strut and its nominal direction; platform joint angle:
+    between the strut and the nominal direction carried along by the platform rotation
+    (seed 3.2). Strut distance: true segment distance of the configured pairs (3.3).
+    """
+    poses = as_poses(poses)
+    blocks = [_check_block(geometry, poses[k:k + _CHUNK]) for k in range(0, len(poses), _CHUNK)]
+    return PoseCheck(*(np.concatenate(parts) for parts in zip(*blocks)))
 
 
 def test_pose(geometry: StewartGeometry, poses) -> np.ndarray:
