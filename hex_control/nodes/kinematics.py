@@ -189,9 +189,8 @@ class KinematicsNode(Node):
             if self.core.is_pru3:
                 start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
                 q, used = pru3_kinematics.forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
-                full = pru3_kinematics.inverse_kinematics(self.core.machine, q).full[0]
-                pose, residual = full, float(np.max(np.abs(
-                    pru3_kinematics.inverse_kinematics(self.core.machine, q).lengths_mm[0] - lengths)))
+                solved = pru3_kinematics.inverse_kinematics(self.core.machine, q)
+                pose, residual = solved.full[0], float(np.max(np.abs(solved.lengths_mm[0] - lengths)))
             else:
                 start = guess if np.any(guess) else None
                 pose, used, residual = forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
