@@ -257,7 +257,7 @@ def main(args=None) -> int:
     import rclpy
 
     rclpy.init(args=sys.argv if args is None else args)
-    nodes, executors = [], []
+    nodes, executors, worker = [], [], None
     try:
         node = KinematicsNode()
         companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
@@ -274,6 +274,8 @@ def main(args=None) -> int:
     finally:
         for executor in executors:
             executor.shutdown(timeout_sec=1.0)
+        if worker is not None:  # a thread still in the wait set at exit aborts the process
+            worker.join(timeout=10.0)
         for each in nodes:
             each.destroy_node()
         rclpy.try_shutdown()
