@@ -1,0 +1,293 @@
+"""Stochastic dynamic programming for grinding sequences (seed 002 sections 5.2-5.7).
+
+State: time remaining t (s; negative = late) and material remaining X (mm; negative =
+overground) on a grid. At every state the planner chooses
+    GRIND (F_N, V_f): a pass of duration L/V_f + t_R (eq. 5.6), landing on a stage boundary;
+          its expected penalty is the integral of eq. 5.3, E[J(t - d, X - delta)], with J
+          interpolated linearly in X and delta drawn from the stochastic model;
+    WAIT: do nothing for one stage (before the deadline);
+    QUIT: end the job now (optimal stopping, 5.5) and pay C(X) + lateness charge.
+With a fixed deadline (no lateness) J(0, X) = C(X) and passes must end by the deadline.
+
+Vectorization: the cut depth does not depend on X, so on the uniform X grid the
+expectation is a correlation of J with a kernel per control, K[k] = P(interpolation
+weight at a shift of k grid steps). The kernels are computed once; for each feed the
+planner gathers J into a Toeplitz block and multiplies by the kernels of all forces.
+Stages closer together than the shortest pass do not depend on each other, so a whole
+block of them is one matrix product per feed.
+
+Units: mm, N, s; penalties in charge units.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hex_control.grinding.model import GrindingProcess
+from hex_control.grinding.penalties import DeadlineCharge, InPathCharges, LatenessCharge, SideCharge
+from hex_control.grinding.stochastic import CutDepthModel
+
+WAIT, GRIND, QUIT = 0, 1, 2
+ACTION_NAMES = {WAIT: "wait", GRIND: "grind", QUIT: "quit"}
+
+
+@dataclass(frozen=True)
+class PlannerGrid:
+    """The discretized state and control spaces."""
+
+    material_min_mm: float = -1.0
+    material_max_mm: float = 2.0
+    material_states: int = 301
+    time_step_s: float = 2.0
+    horizon_s: float = 120.0  # largest time remaining
+    late_horizon_s: float = 0.0  # grinding allowed this long past the deadline; 0 = fixed deadline
+    forces: int = 32
+    feeds: int = 8
+
+    def __post_init__(self):
+        if not self.material_min_mm < 0 < self.material_max_mm:
+            raise ValueError("the material grid must span 0 (material_min_mm < 0 < material_max_mm)")
+        if self.material_states < 3 or self.forces < 1 or self.feeds < 1:
+            raise ValueError("need >= 3 material states, >= 1 force, >= 1 feed")
+        if not (self.time_step_s > 0 and self.horizon_s >= self.time_step_s and self.late_horizon_s >= 0):
+            raise ValueError("need time_step_s > 0, horizon_s >= time_step_s, late_horizon_s >= 0")
+
+    @property
+    def material_mm(self) -> np.ndarray:
+        return np.linspace(self.material_min_mm, self.material_max_mm, self.material_states)
+
+    @property
+    def material_step_mm(self) -> float:
+        return (self.material_max_mm - self.material_min_mm) / (self.material_states - 1)
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Stage times (time remaining), ascending from -late_horizon_s."""
+        low = -round(self.late_horizon_s / self.time_step_s) * self.time_step_s
+        count = round((self.horizon_s - low) / self.time_step_s) + 1
+        return low + self.time_step_s * np.arange(count)
+
+
+@dataclass(frozen=True)
+class Charges:
+    deadline: DeadlineCharge = field(default_factory=DeadlineCharge)
+    lateness: LatenessCharge = field(default_factory=LatenessCharge)
+    in_path: InPathCharges = field(default_factory=InPathCharges)
+
+
+def charges_from_dict(data: dict) -> Charges:
+    deadline = data.get("deadline", {})
+    return Charges(
+        DeadlineCharge(SideCharge(**deadline.get("over", {"kind": "constant", "coefficient": 5.0})),
+                       SideCharge(**deadline.get("under", {"kind": "linear", "coefficient": 2.0})),
+                       float(deadline.get("tolerance_mm", 0.02))),
+        LatenessCharge(SideCharge(**data.get("lateness", {"kind": "linear", "coefficient": 1.0}))),
+        InPathCharges(**data.get("in_path", {})))
+
+
+@dataclass(frozen=True)
+class Controls:
+    """The control set: forces (n_F,), pass durations in stages (n_V,), feeds (n_V,),
+    feasibility (n_F, n_V), mean cut depth and its quadrature nodes (n_F, n_V, n_q)."""
+
+    forces_n: np.ndarray
+    duration_stages: np.ndarray
+    feeds_mm_s: np.ndarray
+    feasible: np.ndarray
+    mean_cut_mm: np.ndarray
+    cut_nodes_mm: np.ndarray
+
+
+def build_controls(process: GrindingProcess, grid: PlannerGrid, cut_model: CutDepthModel) -> Controls:
+    """Forces from just above the zero-cut force to F_max; feeds whose passes last a whole
+    number of stages (as the thesis did), fastest first, at most ``grid.feeds`` of them."""
+    dt = grid.time_step_s
+    shortest = math.ceil((process.bead_length_mm / process.feed_max_mm_s + process.reset_time_s) / dt - 1e-9)
+    longest = math.floor((process.bead_length_mm / process.feed_min_mm_s + process.reset_time_s) / dt + 1e-9)
+    shortest = max(shortest, math.floor(process.reset_time_s / dt) + 1)
+    if longest < shortest:
+        raise ValueError("no feed speed gives a pass of a whole number of stages: refine time_step_s")
+    durations = np.unique(np.round(np.linspace(shortest, longest, min(grid.feeds, longest - shortest + 1))).astype(int))
+    feeds = process.bead_length_mm / (durations * dt - process.reset_time_s)
+    f0 = process.zero_cut_force_n()
+    forces = np.linspace(f0 + (process.force_max_n - f0) / grid.forces, process.force_max_n, grid.forces)
+    force_grid, feed_grid = np.meshgrid(forces, feeds, indexing="ij")
+    mean = process.cut_depth_mm(force_grid, feed_grid)
+    nodes = cut_model.quantiles(mean, cut_model.std_mm(process, force_grid, feed_grid))
+    return Controls(forces, durations, feeds, process.feasible(force_grid, feed_grid), mean, nodes)
+
+
+def _kernels(nodes_mm: np.ndarray, step_mm: float):
+    """Per-control correlation kernels for one feed: (k_low, K (n_F, n_k)) such that
+    E[J(X_i - delta)] = sum_k K[f, k] J[i - k_low - k] with linear interpolation of J."""
+    shift = nodes_mm / step_mm
+    whole = np.floor(shift).astype(int)
+    frac = shift - whole
+    low, high = int(whole.min()), int(whole.max()) + 1
+    kernel = np.zeros((nodes_mm.shape[0], high - low + 1))
+    weight = 1.0 / nodes_mm.shape[-1]
+    rows = np.repeat(np.arange(nodes_mm.shape[0]), nodes_mm.shape[-1])
+    np.add.at(kernel, (rows, (whole - low).ravel()), ((1 - frac) * weight).ravel())
+    np.add.at(kernel, (rows, (whole - low + 1).ravel()), (frac * weight).ravel())
+    return low, kernel
+
+
+@dataclass
+class Policy:
+    """Tables over (time stage, material state) and the run-time lookup.
+
+    ``action`` WAIT/GRIND/QUIT; ``force_n``, ``feed_mm_s``, ``duration_s``, ``cut_mm`` (mean
+    cut depth) NaN where not grinding; ``penalty`` is J*; ``cut_fraction`` = mean delta / X.
+    """
+
+    time_s: np.ndarray
+    material_mm: np.ndarray
+    action: np.ndarray
+    force_n: np.ndarray
+    feed_mm_s: np.ndarray
+    duration_s: np.ndarray
+    cut_mm: np.ndarray
+    penalty: np.ndarray
+    metadata: dict
+
+    @property
+    def cut_fraction(self) -> np.ndarray:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(self.material_mm > 0, self.cut_mm / self.material_mm, np.nan)
+
+    def stage_index(self, time_remaining_s: float) -> int:
+        """The stage at or below t: less time than there is, so a planned pass ends in time."""
+        dt = self.time_s[1] - self.time_s[0]
+        return int(np.clip(math.floor((time_remaining_s - self.time_s[0]) / dt + 1e-9), 0, len(self.time_s) - 1))
+
+    def expected_penalty(self, time_remaining_s: float, material_mm: float) -> float:
+        """J* at (t, X), linear in X on the stage at or below t."""
+        return float(np.interp(material_mm, self.material_mm, self.penalty[self.stage_index(time_remaining_s)]))
+
+    def lookup(self, time_remaining_s: float, material_mm: float) -> dict:
+        """The decision at a measured state (feedback from the table, thesis Fig. 5-7).
+
+        Between two material nodes that both grind with the same feed, the force is
+        interpolated linearly; otherwise the nearer node decides.
+        """
+        if not (math.isfinite(time_remaining_s) and math.isfinite(material_mm)):
+            raise ValueError("time and material remaining must be finite")
+        k = self.stage_index(time_remaining_s)
+        x = self.material_mm
+        i = int(np.clip(np.searchsorted(x, material_mm) - 1, 0, len(x) - 2))
+        w = float(np.clip((material_mm - x[i]) / (x[i + 1] - x[i]), 0.0, 1.0))
+        near = i if w < 0.5 else i + 1
+        action = int(self.action[k, near])
+        force, feed = self.force_n[k, near], self.feed_mm_s[k, near]
+        if (action == GRIND and self.action[k, i] == GRIND and self.action[k, i + 1] == GRIND
+                and self.feed_mm_s[k, i] == self.feed_mm_s[k, i + 1]):
+            force = (1 - w) * self.force_n[k, i] + w * self.force_n[k, i + 1]
+        return {"action": ACTION_NAMES[action], "force_n": float(force), "feed_mm_s": float(feed),
+                "duration_s": float(self.duration_s[k, near]), "stage_time_s": float(self.time_s[k]),
+                "expected_penalty": self.expected_penalty(time_remaining_s, material_mm)}
+
+    def save(self, path) -> None:
+        arrays = {name: getattr(self, name) for name in
+                  ("time_s", "material_mm", "action", "force_n", "feed_mm_s", "duration_s", "cut_mm", "penalty")}
+        np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
+
+    @classmethod
+    def load(cls, path) -> Policy:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files if name != "metadata"}
+            return cls(metadata=json.loads(str(data["metadata"])), **arrays)
+
+
+def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerGrid = PlannerGrid(),
+          cut_model: CutDepthModel = CutDepthModel(), progress=None) -> Policy:
+    """Backward induction over the whole grid; returns the optimal policy.
+
+    ``progress`` (optional) is called with the number of stages done after each block.
+    """
+    x = grid.material_mm
+    times = grid.time_s
+    n_x, n_t = len(x), len(times)
+    controls = build_controls(process, grid, cut_model)
+    late = grid.late_horizon_s > 0
+    deadline_charge = charges.deadline(x)
+
+    # per feed: Toeplitz gather indices and kernels of all forces
+    per_feed = []
+    for v, duration in enumerate(controls.duration_stages):
+        low, kernel = _kernels(controls.cut_nodes_mm[:, v], grid.material_step_mm)
+        offsets = low + np.arange(kernel.shape[1])
+        gather = np.clip(np.arange(n_x)[:, None] - offsets[None, :], 0, n_x - 1)
+        per_feed.append((int(duration), gather, kernel, controls.feasible[:, v]))
+    finish = charges.in_path.surface_finish_per_mm_s
+
+    penalty = np.empty((n_t, n_x))
+    no_grind_after = np.empty((n_t, n_x))
+    action = np.full((n_t, n_x), WAIT, np.int8)
+    best_force = np.full((n_t, n_x), np.nan)
+    best_feed_index = np.full((n_t, n_x), -1)
+
+    def quit_value(k):
+        return deadline_charge + (charges.lateness(-times[k]) if late else 0.0)
+
+    has_material = x > charges.deadline.tolerance_mm
+    penalty[0] = quit_value(0)
+    action[0] = QUIT if late else WAIT
+    no_grind_after[0] = 1.0
+    block = int(controls.duration_stages.min())
+    k = 1
+    while k < n_t:
+        stages = np.arange(k, min(k + block, n_t))
+        grind = np.full((len(stages), n_x), np.inf)
+        grind_force = np.zeros((len(stages), n_x), int)
+        grind_feed = np.full((len(stages), n_x), -1)
+        for v, (duration, gather, kernel, feasible) in enumerate(per_feed):
+            valid = stages - duration >= 0
+            if not valid.any() or not feasible.any():
+                continue
+            targets = stages[valid] - duration
+            expected = penalty[targets][:, gather] @ kernel[feasible].T  # (stages, n_x, forces)
+            expected += charges.in_path.per_pass
+            if finish > 0:
+                last = no_grind_after[targets][:, gather] @ kernel[feasible].T
+                expected += finish * controls.feeds_mm_s[v] * last
+            f_best = expected.argmin(axis=2)
+            value = np.take_along_axis(expected, f_best[..., None], axis=2)[..., 0]
+            better = value < grind[valid]
+            rows = np.flatnonzero(valid)
+            grind[rows] = np.where(better, value, grind[rows])
+            grind_force[rows] = np.where(better, np.flatnonzero(feasible)[f_best], grind_force[rows])
+            grind_feed[rows] = np.where(better, v, grind_feed[rows])
+        for row, stage in enumerate(stages):
+            # not grinding: wait a stage before the deadline, quit after it (or quit anywhere)
+            rest = penalty[stage - 1] if times[stage] > 0 else np.full(n_x, np.inf)
+            stop = quit_value(stage) if late else np.full(n_x, np.inf)
+            idle_choice = np.where(stop <= rest, QUIT, WAIT) if late else np.full(n_x, WAIT)
+            idle = np.minimum(rest, stop)
+            # ties (to rounding): grind while material remains above the tolerance band --
+            # as good, and earlier -- but never when there is nothing to remove
+            tie = 1e-12 * np.maximum(1.0, np.abs(idle))
+            grinds = np.where(has_material, grind[row] <= idle + tie, grind[row] < idle - tie)
+            penalty[stage] = np.where(grinds, grind[row], idle)
+            action[stage] = np.where(grinds, GRIND, idle_choice)
+            no_grind_after[stage] = np.where(grinds, 0.0, 1.0)
+            best_force[stage] = np.where(grinds, controls.forces_n[grind_force[row]], np.nan)
+            best_feed_index[stage] = np.where(grinds, grind_feed[row], -1)
+        k = stages[-1] + 1
+        if progress is not None:
+            progress(len(stages))
+
+    grinding = best_feed_index >= 0
+    feed_index = np.where(grinding, best_feed_index, 0)
+    feed = np.where(grinding, controls.feeds_mm_s[feed_index], np.nan)
+    duration = np.where(grinding, controls.duration_stages[feed_index] * grid.time_step_s, np.nan)
+    cut = np.where(grinding, process.cut_depth_mm(np.nan_to_num(best_force), np.where(grinding, feed, 1.0)), np.nan)
+    metadata = {"process": process.to_dict(), "grid": asdict(grid), "cut_model": asdict(cut_model),
+                "charges": {"deadline": asdict(charges.deadline), "lateness": asdict(charges.lateness),
+                            "in_path": asdict(charges.in_path)},
+                "feeds_mm_s": controls.feeds_mm_s.tolist(), "forces_n": controls.forces_n.tolist()}
+    return Policy(times, x, action, best_force, feed, duration, cut, penalty, metadata)

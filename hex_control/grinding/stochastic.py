@@ -1,0 +1,105 @@
+"""Stochastic cut depth (seed 002 section 4.2, eq. 4.9-4.10, Table 4-1, Fig. 4-2).
+
+The standard deviation of the cut depth follows from the variation of one coefficient:
+    C1:  sigma_delta = C3 F_N sigma_C1 / V_f                          (4.9a)
+    C2:  sigma_delta = sigma_C2 / V_f                                  (4.9b)
+    mu:  sigma_delta = C1 omega R F_N sigma_mu / (w V_f)               (4.9c)
+and sigma_Xf = sigma_delta (4.10). Variations are given relative to the coefficient
+(``relative_variation``, the thesis's 10-20 %). A fourth source, ``cut``, takes sigma_delta
+proportional to the mean cut itself -- the "independence of dimension" the thesis assumes
+in its footnote to section 5.4; with 4.9a-c the smallest pass keeps a noise floor (the
+force never falls to zero while cutting), which breaks the convexity of J near X = 0.
+
+PDF of the cut depth with that mean m and standard deviation s:
+    normal     -- N(m, s^2) (allows negative cuts, which the thesis rejects);
+    lognormal  -- the log-normal with mean m and variance s^2;
+    rayleigh   -- the thesis's choice: a Rayleigh of variance s^2 shifted right to mean m
+                  when its own mean sigma_R sqrt(pi/2) is below m (mean and variance
+                  independent); otherwise scaled down to mean m with its origin at zero cut
+                  depth (variance then tied to the mean).
+The expectation of eq. 5.3 is taken by equal-probability quadrature: the n nodes are the
+distribution's quantiles at (j + 1/2)/n, each of weight 1/n.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ndtri
+
+from hex_control.grinding.model import GrindingProcess
+
+PDFS = ("normal", "lognormal", "rayleigh")
+SOURCES = ("c1", "c2", "mu", "cut")
+_RAYLEIGH_MEAN = math.sqrt(math.pi / 2)  # mean / sigma_R
+_RAYLEIGH_STD = math.sqrt(2 - math.pi / 2)  # std / sigma_R
+
+
+@dataclass(frozen=True)
+class CutDepthModel:
+    """Which coefficient varies, by how much, and the PDF shape."""
+
+    source: str = "c1"
+    relative_variation: float = 0.15
+    pdf: str = "rayleigh"
+    quadrature_nodes: int = 32
+
+    def __post_init__(self):
+        if self.source not in SOURCES:
+            raise ValueError(f"source must be one of {SOURCES}, got {self.source!r}")
+        if self.pdf not in PDFS:
+            raise ValueError(f"pdf must be one of {PDFS}, got {self.pdf!r}")
+        if not (0 <= self.relative_variation < 1):
+            raise ValueError(f"relative_variation must be in [0, 1), got {self.relative_variation}")
+        if self.quadrature_nodes < 1:
+            raise ValueError("quadrature_nodes must be >= 1")
+
+    def std_mm(self, process: GrindingProcess, force_n, feed_mm_s):
+        """sigma_delta of eq. 4.9a-c (mm)."""
+        force_n, feed_mm_s = np.asarray(force_n, float), np.asarray(feed_mm_s, float)
+        if self.source == "c1":
+            return process.c3(force_n) * force_n * self.relative_variation * process.c1 / feed_mm_s
+        if self.source == "c2":
+            return np.abs(process.c2) * self.relative_variation / feed_mm_s + 0 * force_n
+        if self.source == "cut":
+            return self.relative_variation * process.cut_depth_mm(force_n, feed_mm_s)
+        mu = process.friction_coefficient
+        return (process.c1 * process.disk_speed(force_n) * process.disk_radius_mm * force_n
+                * self.relative_variation * mu / (process.bead_width_mm * feed_mm_s))
+
+    def quantiles(self, mean_mm, std_mm) -> np.ndarray:
+        """Equal-probability nodes of the cut-depth PDF, shape (..., quadrature_nodes)."""
+        u = (np.arange(self.quadrature_nodes) + 0.5) / self.quadrature_nodes
+        return self.ppf(np.asarray(mean_mm, float)[..., None], np.asarray(std_mm, float)[..., None], u)
+
+    def sample(self, mean_mm: float, std_mm: float, rng: np.random.Generator) -> float:
+        """One cut depth drawn from the PDF (for Monte-Carlo rollouts of a policy)."""
+        return float(self.ppf(np.asarray(mean_mm, float), np.asarray(std_mm, float), rng.uniform()))
+
+    def ppf(self, mean, std, u):
+        """Quantile function of the cut-depth PDF at probabilities u (broadcasting)."""
+        if self.pdf == "normal":
+            return mean + std * ndtri(u)
+        if self.pdf == "lognormal":
+            safe_mean = np.maximum(mean, 1e-300)
+            sigma2 = np.log1p((std / safe_mean) ** 2)
+            nodes = np.exp(np.log(safe_mean) - sigma2 / 2 + np.sqrt(sigma2) * ndtri(u))
+            return np.where(mean > 0, nodes, 0.0)
+        return rayleigh_quantiles(mean, std, u)
+
+
+def rayleigh_parameters(mean_mm, std_mm):
+    """(sigma_R, shift) of the thesis's shifted-or-scaled Rayleigh with this mean and std."""
+    mean, std = np.asarray(mean_mm, float), np.asarray(std_mm, float)
+    sigma_for_std = std / _RAYLEIGH_STD
+    shift = mean - sigma_for_std * _RAYLEIGH_MEAN
+    scaled = shift < 0  # cannot shift left of zero cut depth: scale to the mean instead
+    sigma = np.where(scaled, mean / _RAYLEIGH_MEAN, sigma_for_std)
+    return sigma, np.where(scaled, 0.0, shift)
+
+
+def rayleigh_quantiles(mean, std, u):
+    sigma, shift = rayleigh_parameters(mean, std)
+    return shift + sigma * np.sqrt(-2.0 * np.log1p(-u))
