@@ -30,6 +30,14 @@ def _parser() -> argparse.ArgumentParser:
     workspace.add_argument("--output", default="output/workspace", help="report directory")
     workspace.add_argument("--json", action="store_true", help="print the summary as JSON")
 
+    sdp = commands.add_parser("sdp", help="solve the grinding-sequence SDP and plot the policy")
+    sdp.add_argument("--config", default="sequence_planner.yaml",
+                     help="planner YAML (process, charges, grid, cut_model); path or name under config/")
+    sdp.add_argument("--late", type=float, default=None, help="override grid.late_horizon_s (s)")
+    sdp.add_argument("--burn", type=float, default=None, help="override process.burn_coefficient")
+    sdp.add_argument("--output", default="output/sdp", help="report directory")
+    sdp.add_argument("--json", action="store_true", help="print the summary as JSON")
+
     bench = commands.add_parser("bench", help="run benchmarks (ratios against in-process baselines)")
     bench.add_argument("cases", nargs="*", help="case names (default: all)")
     bench.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
@@ -97,6 +105,46 @@ def _workspace(args) -> int:
     return 0
 
 
+def _sdp(args) -> int:
+    import dataclasses
+    import json
+    from pathlib import Path
+
+    import numpy as np
+    from tqdm import tqdm
+
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.plots import plot_action_map, plot_policy_map
+    from hex_control.grinding.sdp import GRIND, QUIT, solve
+
+    process, charges, grid, cut_model = load_planner_config(args.config)
+    if args.late is not None:
+        grid = dataclasses.replace(grid, late_horizon_s=args.late)
+    if args.burn is not None:
+        process = dataclasses.replace(process, burn_coefficient=args.burn)
+    output = Path(args.output)
+    output.mkdir(parents=True, exist_ok=True)
+    with tqdm(total=len(grid.time_s) - 1, desc="SDP stages", unit="stage") as bar:
+        policy = solve(process, charges, grid, cut_model, progress=bar.update)
+    policy.save(output / "policy.npz")
+    plot_policy_map(output / "policy_map.png", policy)
+    plot_action_map(output / "actions.png", policy)
+    grinding = policy.action == GRIND
+    summary = {
+        "states": [len(policy.time_s), len(policy.material_mm)],
+        "feeds_mm_s": policy.metadata["feeds_mm_s"],
+        "grind_share": float(grinding.mean()), "quit_share": float((policy.action == QUIT).mean()),
+        "max_cut_mm": float(np.nanmax(policy.cut_mm)),
+        "penalty_at": {f"t={t:g}s,X={x:g}mm": policy.expected_penalty(t, x)
+                       for t, x in ((grid.horizon_s, 1.0), (grid.horizon_s / 2, 1.0), (20.0, 0.5))},
+    }
+    (output / "summary.json").write_text(json.dumps(summary, indent=2))
+    print(json.dumps(summary, indent=2) if args.json else
+          f"solved {summary['states'][0]} x {summary['states'][1]} states; max cut {summary['max_cut_mm']:.3f} mm; "
+          f"wrote {output}/policy.npz, policy_map.png, actions.png, summary.json")
+    return 0
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
@@ -106,6 +154,8 @@ def main(argv=None) -> int:
             return run_demo(args.output, args.samples, args.rate, args.seed)
         if args.command == "workspace":
             return _workspace(args)
+        if args.command == "sdp":
+            return _sdp(args)
         if args.command == "bench":
             from hex_control.bench import run_benchmarks
 
