@@ -1,0 +1,39 @@
+"""Process-coefficient estimation (seed 002 section 6.5) and the per-pass model update."""
+
+import numpy as np
+import pytest
+
+from hex_control.grinding.coefficients import PassModelUpdate, fit_power_law, measured_specific_energy
+from hex_control.grinding.model import GrindingProcess
+
+
+def test_least_squares_recovers_k1_k2_within_their_standard_errors():
+    """Synthetic pairs around the thesis's fit (K1 = 12.8 J/mm^3, K2 = 114 W) with noise
+    giving a correlation near its 0.81."""
+    rng = np.random.default_rng(0)
+    q = rng.uniform(5, 60, 40)
+    power = 12.8 * q + 114 + rng.normal(0, 110, q.size)
+    fit = fit_power_law(q, power)
+    assert abs(fit.specific_energy_j_mm3 - 12.8) < 4 * fit.specific_energy_se
+    assert abs(fit.wasted_power_w - 114) < 4 * fit.wasted_power_se
+    assert 0.7 < fit.correlation < 0.95
+    with pytest.raises(ValueError):
+        fit_power_law([1, 1, 1], [2, 3, 4])
+
+
+def test_a_measured_cut_gives_back_k1():
+    process = GrindingProcess()
+    cut = process.cut_depth_mm(40.0, 20.0)
+    assert measured_specific_energy(process, 40.0, 20.0, cut) == pytest.approx(10.0)
+    dull = GrindingProcess(specific_energy_j_mm3=13.0)
+    assert measured_specific_energy(process, 40.0, 20.0, dull.cut_depth_mm(40.0, 20.0)) == pytest.approx(13.0)
+
+
+def test_re_solve_only_when_the_estimate_moves():
+    update = PassModelUpdate(GrindingProcess(), threshold=0.05)
+    assert not update.observe(10.3)
+    assert update.observe(10.8)
+    update.mark_solved()
+    assert not update.observe(11.0) and update.process.specific_energy_j_mm3 == 11.0
+    with pytest.raises(ValueError):
+        update.observe(float("nan"))
