@@ -11,6 +11,7 @@ NODES = {
     "load_predictor": "hex_control.nodes.load_predictor:main",
     "synthetic_load": "hex_control.nodes.synthetic_load:main",
     "kinematics": "hex_control.nodes.kinematics:main",
+    "sequence_planner": "hex_control.nodes.sequence_planner:main",
 }
 
 setup(

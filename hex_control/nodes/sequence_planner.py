@@ -1,0 +1,264 @@
+"""Node ``sequence_planner``: the top tier -- the GrindBead action, one pass at a time.
+
+Serves ``~/grind_bead`` (hex_control_msgs/action/GrindBead). For a goal it solves the SDP
+policy for that bead (library :mod:`hex_control.grinding`), publishes the next
+``PassCommand`` on /grinding/pass_command (latched), and after every ``PassResult`` on
+/grinding/pass_result looks the policy up at the measured state (Fig. 5-7) until the
+policy ends the job. Feedback per pass; the result says done / quit / cancelled /
+aborted / rejected (bad goals are accepted and ended at once as REJECTED with the reason).
+
+Every decision and result is appended to a job log in ``job_dir`` before it is acted on;
+a restarted planner resumes an unfinished job from its log (the action client of the old
+process is gone: the resumed job reports on ~/job_feedback and ~/job_result).
+K1 estimates on /load_predictor/pass/prediction (LoadPrediction, J/mm^3) update the
+process model and trigger a re-solve when they move more than ``resolve_threshold``.
+
+The job's time is logical: it advances by the measured pass durations (a waiting step
+advances it by one stage), not by this node's clock.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import time
+from pathlib import Path
+
+import yaml
+from action_msgs.msg import GoalStatus  # noqa: F401  (documentation of the result states)
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from hex_control.config import config_file
+from hex_control.grinding.coefficients import PassModelUpdate
+from hex_control.grinding.config import load_planner_config, parse_planner_config
+from hex_control.grinding.job import ABORTED, CANCELLED, DONE, QUIT, GrindingJob, JobGoal, new_job_id, unfinished_logs
+from hex_control.grinding.sdp import solve
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.runtime import run_node
+from hex_control_msgs.action import GrindBead
+from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
+
+REASONS = {DONE: GrindBead.Result.DONE, QUIT: GrindBead.Result.QUIT, CANCELLED: GrindBead.Result.CANCELLED,
+           ABORTED: GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+#: pass results are kept by their publisher, so one sent while this node restarts (or before
+#: it has matched) still arrives; results for other passes are ignored, so replays are harmless
+RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def goal_from_message(goal) -> JobGoal:
+    """Validate a GrindBead goal into a JobGoal; ValueError with the reason otherwise."""
+    contour = goal.bead
+    if len(contour.x_mm) or len(contour.z_mm):
+        x, z = list(contour.x_mm), list(contour.z_mm)
+        if len(x) != len(z) or len(x) < 2:
+            raise ValueError("bead contour needs equally long x_mm and z_mm with at least 2 points")
+        if not all(math.isfinite(v) for v in x + z):
+            raise ValueError("bead contour has non-finite points")
+        if any(b <= a for a, b in zip(x, x[1:])):
+            raise ValueError("bead contour x_mm must increase strictly")
+        length = x[-1] - x[0]
+        # mean height by the trapezoid rule: the state X of the thesis (4.7)
+        height = sum((z0 + z1) / 2 * (x1 - x0) for x0, x1, z0, z1 in zip(x, x[1:], z, z[1:])) / length
+    else:
+        length, height = goal.bead_length_mm, goal.bead_height_mm
+    width = goal.bead_width_mm or contour.bead_width_mm
+    return JobGoal(goal.job_id or new_job_id(), float(height), float(width), float(length), float(goal.deadline_s))
+
+
+class SequencePlannerNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("sequence_planner", **kwargs)
+        read_only = ParameterDescriptor(read_only=True)
+        self.declare_parameter("planner_config", str(config_file("sequence_planner.yaml")), read_only)
+        self.declare_parameter("job_dir", os.path.expanduser("~/.local/state/hex_control/jobs"), read_only)
+        self.declare_parameter("resolve_threshold", 0.05, ParameterDescriptor(
+            description="relative change of K1 that triggers a re-solve"))
+        self.declare_parameter("pass_timeout_s", 300.0, ParameterDescriptor(
+            description="wall time to wait for a pass result before aborting the job (s)"))
+        self.base_config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
+        self.process, self.charges, self.grid, self.cut_model = load_planner_config(
+            self.get_parameter("planner_config").value)
+        self.job_dir = Path(self.get_parameter("job_dir").value)
+        self.diagnostics = Diagnostics(self)
+        self.job: GrindingJob | None = None
+        self.goal_handle = None
+        self.results: dict[bytes, GrindBead.Result] = {}
+        self.model_update: PassModelUpdate | None = None
+        self._sent_at = None
+
+        self.command_pub = self.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
+        self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", 10)
+        self.result_pub = self.create_publisher(GrindBead.Result, "~/job_result", LATCHED)
+        self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
+        self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_prediction, 10)
+        self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
+                                   goal_callback=lambda _goal: GoalResponse.ACCEPT,
+                                   handle_accepted_callback=self._on_accepted,
+                                   cancel_callback=self._on_cancel)
+        self.create_timer(1.0, self._watchdog)
+        self._resume()
+
+    # -- jobs ------------------------------------------------------------------------------
+    def _policy_for(self, goal: JobGoal, process=None):
+        process = dataclasses.replace(process or self.process, bead_width_mm=goal.bead_width_mm,
+                                      bead_length_mm=goal.bead_length_mm)
+        grid = self.grid
+        if goal.deadline_s > grid.horizon_s:
+            grid = dataclasses.replace(grid, horizon_s=math.ceil(goal.deadline_s / grid.time_step_s) * grid.time_step_s)
+        start = time.perf_counter()
+        policy = solve(process, self.charges, grid, self.cut_model)
+        self.diagnostics.set("last_solve_ms", f"{1000 * (time.perf_counter() - start):.1f}")
+        self.diagnostics.count("solves")
+        return process, policy
+
+    def _resume(self) -> None:
+        logs = unfinished_logs(self.job_dir) if self.job_dir.is_dir() else []
+        if not logs:
+            return
+        first = [line for line in logs[-1].read_text().splitlines() if line][0]
+        goal = JobGoal(**{k: v for k, v in yaml.safe_load(first).items() if k != "type"})
+        process, policy = self._policy_for(goal)
+        self.job = GrindingJob.resume(logs[-1], policy, self.charges)
+        self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
+        self.get_logger().info(f"resumed job {goal.job_id} at pass {self.job.state.passes} "
+                               f"(t = {self.job.state.time_remaining_s:.1f} s, X = {self.job.state.material_mm:.3f} mm)")
+        self.diagnostics.count("resumed_jobs")
+        self._advance()
+
+    def _on_accepted(self, goal_handle) -> None:
+        if self.job is not None and not self.job.finished:
+            self._reject(goal_handle, f"job {self.job.goal.job_id} is still running")
+            return
+        try:
+            goal = goal_from_message(goal_handle.request)
+            overrides = {name: yaml.safe_load(text) or {} for name, text in
+                         (("charges", goal_handle.request.charges_yaml), ("process", goal_handle.request.process_yaml))}
+            config = {**self.base_config, **{k: {**self.base_config.get(k, {}), **v} for k, v in overrides.items() if v}}
+            process, charges, _, _ = parse_planner_config(config)
+        except (ValueError, TypeError, yaml.YAMLError) as exc:
+            self._reject(goal_handle, str(exc))
+            return
+        self.charges = charges
+        process, policy = self._policy_for(goal, process)
+        self.job = GrindingJob(goal, policy, charges, self.job_dir / f"{goal.job_id}.jsonl")
+        self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
+        self.goal_handle = goal_handle
+        self.get_logger().info(f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s")
+        self._advance()
+
+    def _reject(self, goal_handle, reason: str) -> None:
+        self.diagnostics.count("rejected_goals")
+        self.get_logger().warning(f"goal rejected: {reason}")
+        self.results[bytes(goal_handle.goal_id.uuid)] = GrindBead.Result(
+            reason=GrindBead.Result.REJECTED, message=reason)
+        goal_handle.execute()
+
+    def _advance(self) -> None:
+        decision = self.job.decide()
+        if decision is None:
+            self._finish()
+            return
+        command = PassCommand()
+        command.header.stamp = self.get_clock().now().to_msg()
+        command.job_id = self.job.goal.job_id
+        command.pass_index = decision["pass_index"]
+        command.normal_force_n = decision["force_n"]
+        command.feed_speed_mm_s = decision["feed_mm_s"]
+        command.cut_depth_mm = float(self.model_update.process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"]))
+        command.pass_duration_s = decision["duration_s"]
+        command.material_remaining_mm = decision["material_mm"]
+        command.time_remaining_s = decision["time_remaining_s"]
+        command.expected_penalty = decision["expected_penalty"]
+        self.command_pub.publish(command)
+        self._sent_at = time.monotonic()
+        feedback = GrindBead.Feedback(pass_index=command.pass_index, material_remaining_mm=command.material_remaining_mm,
+                                      time_remaining_s=command.time_remaining_s,
+                                      expected_penalty=command.expected_penalty, command=command)
+        self.feedback_pub.publish(feedback)
+        if self.goal_handle is not None and self.goal_handle.is_active:
+            self.goal_handle.publish_feedback(feedback)
+
+    def _result_message(self) -> GrindBead.Result:
+        end, state = self.job.state.end, self.job.state
+        return GrindBead.Result(reason=REASONS[end["reason"]], message=end["message"], passes=state.passes,
+                                material_remaining_mm=state.material_mm, time_remaining_s=state.time_remaining_s,
+                                lateness_s=max(0.0, -state.time_remaining_s), total_charge=end["charge"])
+
+    def _finish(self) -> None:
+        result = self._result_message()
+        self.result_pub.publish(result)
+        self.diagnostics.count(f"jobs_{self.job.state.end['reason']}")
+        self.get_logger().info(f"job {self.job.goal.job_id} ended: {self.job.state.end['reason']}, "
+                               f"{result.passes} passes, charge {result.total_charge:.4f}")
+        self._sent_at = None
+        if self.goal_handle is not None:
+            self.results[bytes(self.goal_handle.goal_id.uuid)] = result
+            handle, self.goal_handle = self.goal_handle, None
+            if handle.status == GoalStatus.STATUS_ACCEPTED:
+                handle.execute()
+
+    def _execute(self, goal_handle):
+        result = self.results.pop(bytes(goal_handle.goal_id.uuid))
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        elif result.reason in (GrindBead.Result.DONE, GrindBead.Result.QUIT):
+            goal_handle.succeed()
+        else:
+            goal_handle.abort()
+        return result
+
+    def _on_cancel(self, goal_handle):
+        if self.goal_handle is not goal_handle or self.job is None or self.job.finished:
+            return CancelResponse.REJECT
+        self.job.end(CANCELLED, "cancelled by the client")
+        self._finish()  # executes the goal now, so that the cancel can complete it
+        return CancelResponse.ACCEPT
+
+    # -- inputs ----------------------------------------------------------------------------
+    def _on_result(self, msg: PassResult) -> None:
+        job = self.job
+        pending = job.state.pending if job is not None else None
+        if pending is None or msg.job_id != job.goal.job_id or msg.pass_index != pending["pass_index"]:
+            self.diagnostics.count("ignored_results")
+            return
+        values = (msg.measured_cut_depth_mm, msg.duration_s)
+        if not all(math.isfinite(v) for v in values) or msg.duration_s < 0 or abs(msg.measured_cut_depth_mm) > 100:
+            self.diagnostics.count("rejected_results")
+            self.get_logger().warning(f"pass result with invalid values {values} rejected")
+            return
+        job.apply_result(msg.pass_index, msg.measured_cut_depth_mm, msg.duration_s, msg.status == PassResult.COMPLETED)
+        if msg.burn_detected:
+            self.diagnostics.warn(f"burn reported on pass {msg.pass_index}")
+        self._advance()
+
+    def _on_prediction(self, msg: LoadPrediction) -> None:
+        if self.model_update is None or self.job is None or self.job.finished:
+            return
+        if not (math.isfinite(msg.prediction) and msg.prediction > 0):
+            self.diagnostics.count("rejected_predictions")
+            return
+        if self.model_update.observe(msg.prediction):
+            goal = self.job.goal
+            _, self.job.policy = self._policy_for(goal, self.model_update.process)
+            self.model_update.mark_solved()
+            self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved")
+
+    def _watchdog(self) -> None:
+        if self._sent_at is None or self.job is None or self.job.finished:
+            return
+        if time.monotonic() - self._sent_at > self.get_parameter("pass_timeout_s").value:
+            self.job.end(ABORTED, "no pass result before the timeout")
+            self._finish()
+
+
+def main(args=None) -> int:
+    return run_node(SequencePlannerNode, args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,134 @@
+"""Node sequence_planner over real processes: GrindBead action, bad goals, cancel, restart."""
+
+import math
+import signal
+
+import numpy as np
+import pytest
+from action_msgs.msg import GoalStatus
+from rclpy.action import ActionClient
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from hex_control.grinding.model import GrindingProcess
+from hex_control.grinding.stochastic import CutDepthModel
+from hex_control_msgs.action import GrindBead
+from hex_control_msgs.msg import PassCommand, PassResult
+from ros_harness import wait_until
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+PROCESS, MODEL = GrindingProcess(), CutDepthModel()
+
+
+class PassExecutor:
+    """Stands in for pass planner + plant: answers each command once with a cut drawn from
+    the stochastic model; passes with index >= ``hold_from`` are held (no answer)."""
+
+    def __init__(self, ros, seed=0):
+        self.node = ros.node("pass_executor")
+        self.rng = np.random.default_rng(seed)
+        self.answered: list[tuple[str, int]] = []
+        self.hold_from = math.inf
+        self.publisher = self.node.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
+        self.node.create_subscription(PassCommand, "/grinding/pass_command", self.on_command, LATCHED)
+
+    def on_command(self, command: PassCommand) -> None:
+        key = (command.job_id, command.pass_index)
+        if key in self.answered or command.pass_index >= self.hold_from:
+            return
+        self.answered.append(key)
+        cut = MODEL.sample(command.cut_depth_mm, MODEL.std_mm(PROCESS, command.normal_force_n, command.feed_speed_mm_s),
+                           self.rng)
+        self.publisher.publish(PassResult(job_id=command.job_id, pass_index=command.pass_index,
+                                          status=PassResult.COMPLETED, measured_cut_depth_mm=cut,
+                                          duration_s=command.pass_duration_s, feed_speed_mm_s=command.feed_speed_mm_s))
+
+
+@pytest.fixture
+def planner(spawn, tmp_path):
+    job_dir = tmp_path / "jobs"
+
+    def start():
+        return spawn(["hex-sequence-planner", "--ros-args", "-p", f"job_dir:={job_dir}"])
+    return start
+
+
+def send(ros, goal, feedback=None):
+    client = ActionClient(ros.node("grind_client"), GrindBead, "/sequence_planner/grind_bead")
+    assert client.wait_for_server(timeout_sec=20.0)
+    future = client.send_goal_async(goal, feedback_callback=feedback)
+    wait_until(future.done, 10.0, what="goal acceptance")
+    return future.result()
+
+
+def result_of(handle, timeout_s=30.0):
+    future = handle.get_result_async()
+    wait_until(future.done, timeout_s, what="the job result")
+    return future.result()
+
+
+def test_a_job_runs_to_completion_over_the_action(ros, planner):
+    planner()
+    executor = PassExecutor(ros)
+    feedback = []
+    handle = send(ros, GrindBead.Goal(job_id="bead1", bead_height_mm=1.0, bead_width_mm=12.5,
+                                      bead_length_mm=300.0, deadline_s=100.0), feedback.append)
+    outcome = result_of(handle)
+    assert outcome.status == GoalStatus.STATUS_SUCCEEDED
+    result = outcome.result
+    assert result.reason in (GrindBead.Result.DONE, GrindBead.Result.QUIT)
+    assert result.passes == len(executor.answered) >= 2
+    assert [index for _, index in executor.answered] == list(range(result.passes))
+    assert len(feedback) == result.passes and math.isfinite(result.total_charge)
+    assert abs(result.material_remaining_mm) < 0.3
+
+
+@pytest.mark.parametrize("goal, reason", [
+    (GrindBead.Goal(bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0, deadline_s=0.0), "deadline_s"),
+    (GrindBead.Goal(bead_height_mm=1.0, bead_width_mm=-2.0, bead_length_mm=300.0, deadline_s=50.0), "bead_width_mm"),
+])
+def test_bad_goals_end_rejected_with_the_reason(ros, planner, goal, reason):
+    planner()
+    outcome = result_of(send(ros, goal))
+    assert outcome.result.reason == GrindBead.Result.REJECTED and reason in outcome.result.message
+
+
+def test_nan_contour_is_rejected(ros, planner):
+    planner()
+    goal = GrindBead.Goal(bead_width_mm=12.5, deadline_s=50.0)
+    goal.bead.x_mm, goal.bead.z_mm = [0.0, 100.0, 200.0], [1.0, math.nan, 1.0]
+    outcome = result_of(send(ros, goal))
+    assert outcome.result.reason == GrindBead.Result.REJECTED and "non-finite" in outcome.result.message
+
+
+def test_cancel_ends_the_job(ros, planner):
+    planner()
+    executor = PassExecutor(ros)
+    executor.hold_from = 1  # the second pass never reports
+    handle = send(ros, GrindBead.Goal(job_id="bead2", bead_height_mm=1.5, bead_width_mm=12.5,
+                                      bead_length_mm=300.0, deadline_s=120.0))
+    wait_until(lambda: len(executor.answered) == 1, 10.0, what="the first pass")
+    cancel = handle.cancel_goal_async()
+    wait_until(cancel.done, 10.0, what="the cancel response")
+    outcome = result_of(handle)
+    assert outcome.status == GoalStatus.STATUS_CANCELED
+    assert outcome.result.reason == GrindBead.Result.CANCELLED and outcome.result.passes == 1
+
+
+def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner):
+    first = planner()
+    executor = PassExecutor(ros, seed=3)
+    executor.hold_from = 2
+    results = []
+    ros.node("result_listener").create_subscription(GrindBead.Result, "/sequence_planner/job_result",
+                                                    results.append, LATCHED)
+    send(ros, GrindBead.Goal(job_id="bead3", bead_height_mm=1.9, bead_width_mm=12.5,
+                             bead_length_mm=300.0, deadline_s=120.0))
+    wait_until(lambda: len(executor.answered) == 2, 10.0, what="two passes")
+    first.process.send_signal(signal.SIGKILL)  # no chance to tidy up
+    first.process.wait()
+    executor.hold_from = math.inf
+    planner()  # same job_dir: resumes from the log, re-publishes the pending pass 2
+    wait_until(lambda: results, 30.0, what="the resumed job's result")
+    indices = [index for _, index in executor.answered]
+    assert indices == list(range(len(indices))) and results[-1].passes == len(indices) > 2
