@@ -132,3 +132,34 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner):
     wait_until(lambda: results, 30.0, what="the resumed job's result")
     indices = [index for _, index in executor.answered]
     assert indices == list(range(len(indices))) and results[-1].passes == len(indices) > 2
+
+
+def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):
+    """Online re-planning: a pass-rate K1 prediction that moves beyond the threshold makes the
+    planner re-solve (the thesis had to regenerate its solution offline, section 8.1)."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from hex_control_msgs.msg import LoadPrediction
+
+    planner()
+    executor = PassExecutor(ros)
+    executor.hold_from = 1
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    send(ros, GrindBead.Goal(job_id="bead4", bead_height_mm=1.5, bead_width_mm=12.5,
+                             bead_length_mm=300.0, deadline_s=120.0))
+    wait_until(lambda: len(executor.answered) == 1, 10.0, what="the first pass")
+    node = ros.node("k1_source")
+    publisher = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1)
+
+    def solves():
+        for array in reversed(list(diagnostics)):
+            for status in array.status:
+                if status.name == "/sequence_planner":
+                    return int(dict((kv.key, kv.value) for kv in status.values).get("solves", 0))
+        return 0
+    wait_until(lambda: solves() == 1, 5.0, what="the first solve in diagnostics")
+    publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=10.2))  # within 5 %
+    publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=12.0))  # beyond
+    publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=float("nan")))
+    wait_until(lambda: solves() == 2, 5.0, what="one re-solve")
