@@ -12,6 +12,7 @@ NODES = {
     "synthetic_load": "hex_control.nodes.synthetic_load:main",
     "kinematics": "hex_control.nodes.kinematics:main",
     "sequence_planner": "hex_control.nodes.sequence_planner:main",
+    "input_shaper": "hex_control.nodes.input_shaper:main",
 }
 
 setup(

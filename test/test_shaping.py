@@ -142,3 +142,20 @@ def test_bad_input_is_refused():
         design("posicast", 1.0)
     with pytest.raises(ValueError):
         zv(-1.0)
+
+
+@pytest.mark.parametrize("kind", ["zvd", "ei"])
+def test_a_reset_move_settles_sooner_when_shaped(kind):
+    """A 100 mm reset step through a lightly damped 5 Hz structural mode (zeta = 0.02), the
+    shaper designed for 5.5 Hz (10 % off): the 2 % settle time drops more than 3x (measured:
+    unshaped 6.21 s, ZVD 0.17 s, EI 0.69 s; a plain ZV only halves it, 3.16 s -- too narrow
+    for a 10 % error). On the library's mode model; the plant node wires it in issue 6."""
+    from hex_control.shaping.vibration import settle_time
+
+    dt = 1e-3
+    t = np.arange(0.0, 12.0, dt)
+    raw = np.where(t >= 0.1, 100.0, 0.0)
+    shaped = ShaperFilter(design(kind, 5.5), dt, interpolate=True).filter(raw[:, None])[:, 0]
+    unshaped_settle = settle_time(t, mode_response(t, raw, 5.0, 0.02), 100.0, 0.0) - 0.1
+    shaped_settle = settle_time(t, mode_response(t, shaped, 5.0, 0.02), 100.0, 0.0) - 0.1
+    assert unshaped_settle > 3 * shaped_settle and unshaped_settle > 5.0

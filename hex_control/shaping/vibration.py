@@ -51,3 +51,14 @@ def mode_response(times_s: np.ndarray, command: np.ndarray, frequency_hz: float,
                             np.array([[1, 0]]), np.array([[0]])), dt, method="zoh")
     _, y, _ = dlsim(system[:4] + (dt,), command, x0=[command[0], 0.0])
     return y[:, 0]
+
+
+def settle_time(times_s: np.ndarray, response: np.ndarray, target: float, start: float, band: float = 0.02) -> float:
+    """Time (s) after which |response - target| stays within ``band`` x |target - start|."""
+    outside = np.abs(np.asarray(response) - target) > band * abs(target - start)
+    if not outside.any():
+        return float(times_s[0])
+    last = int(np.flatnonzero(outside)[-1])
+    if last + 1 >= len(times_s):
+        return float("inf")
+    return float(times_s[last + 1])

@@ -1,0 +1,162 @@
+"""Node ``input_shaper``: shapes a setpoint stream so that it does not excite a lightly
+damped structural mode (seed 003; library :mod:`hex_control.shaping`).
+
+Topics:
+    /motion/setpoint_raw (``input_topic``)  in   PoseStamped or JointState (``input_type``)
+    /motion/setpoint     (``output_topic``) out  the same type, shaped, one message per input
+    /diagnostics                           out  samples, rejected samples, shaper in use
+
+Every input message is one sample at period ``sample_period_s``. A pose is shaped as seven
+channels (position and quaternion, renormalized after shaping -- adequate for the small
+rotations of a reset move); a JointState as one channel per position. Shaper type,
+frequency, damping and V_tol are parameters that may change at run time: the output fades
+from the old shaper to the new one, without a jump. ``shaper: optimized`` designs a
+sequence for ``optimized_frequencies_hz`` by differential evolution in a worker thread and
+switches to it when ready.
+"""
+
+from __future__ import annotations
+
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.runtime import run_node
+from hex_control.shaping.filter import ShaperFilter
+from hex_control.shaping.optimize import DesignProblem, optimize
+from hex_control.shaping.shapers import SHAPERS, design
+
+TYPES = {"pose": PoseStamped, "joint_state": JointState}
+SHAPER_PARAMETERS = ("shaper", "frequency_hz", "damping", "vibration_tolerance", "optimized_frequencies_hz")
+
+
+class InputShaperNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("input_shaper", **kwargs)
+        read_only = ParameterDescriptor(read_only=True)
+        self.declare_parameter("input_type", "pose", read_only)
+        self.declare_parameter("input_topic", "/motion/setpoint_raw", read_only)
+        self.declare_parameter("output_topic", "/motion/setpoint", read_only)
+        self.declare_parameter("sample_period_s", 0.005, read_only)
+        self.declare_parameter("interpolate", True, read_only)
+        self.declare_parameter("shaper", "zvd", ParameterDescriptor(
+            description=f"one of {sorted(SHAPERS)} or 'optimized'"))
+        self.declare_parameter("frequency_hz", 5.0, ParameterDescriptor(
+            floating_point_range=[FloatingPointRange(from_value=0.01, to_value=1000.0, step=0.0)]))
+        self.declare_parameter("damping", 0.02, ParameterDescriptor(
+            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.99, step=0.0)]))
+        self.declare_parameter("vibration_tolerance", 0.05, ParameterDescriptor(
+            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.5, step=0.0)]))
+        self.declare_parameter("optimized_frequencies_hz", [4.25, 5.0, 7.5])
+        kind = self.get_parameter("input_type").value
+        if kind not in TYPES:
+            raise ValueError(f"input_type must be one of {sorted(TYPES)}, got {kind!r}")
+        self._type = TYPES[kind]
+        self.diagnostics = Diagnostics(self)
+        self._designer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shaper-design")
+        self._pending = None
+        self._filter = None
+        self._shaper = self._closed_form(self._values()) if self._values()["shaper"] != "optimized" \
+            else design("zvd", self._values()["frequency_hz"], self._values()["damping"])
+        if self._values()["shaper"] == "optimized":
+            self._start_design(self._values())
+        # setpoints must not be dropped: a queue of 100 samples (0.5 s at 200 Hz) each way
+        self._publisher = self.create_publisher(self._type, self.get_parameter("output_topic").value, 100)
+        self.create_subscription(self._type, self.get_parameter("input_topic").value, self._on_sample, 100)
+        self.add_on_set_parameters_callback(self._validate)
+        self.add_post_set_parameters_callback(self._apply)
+        self.diagnostics.set("shaper", self._values()["shaper"])
+
+    # -- shapers ---------------------------------------------------------------------------
+    def _values(self, overrides=None) -> dict:
+        values = {name: self.get_parameter(name).value for name in SHAPER_PARAMETERS}
+        values.update(overrides or {})
+        return values
+
+    @staticmethod
+    def _closed_form(values: dict):
+        return design(values["shaper"], values["frequency_hz"], values["damping"], values["vibration_tolerance"])
+
+    def _start_design(self, values: dict) -> None:
+        frequencies = tuple(float(f) for f in values["optimized_frequencies_hz"])
+        period = 1.0 / min(frequencies)
+        problem = DesignProblem(frequencies_hz=frequencies, impulses=5, max_delay_s=1.5 * period)
+        self._pending = self._designer.submit(optimize, problem, 1)
+        self.diagnostics.set("shaper", "optimized (designing)")
+
+    def _validate(self, parameters) -> SetParametersResult:
+        values = self._values({p.name: p.value for p in parameters if p.name in SHAPER_PARAMETERS})
+        try:
+            if values["shaper"] == "optimized":
+                if not values["optimized_frequencies_hz"] or min(values["optimized_frequencies_hz"]) <= 0:
+                    raise ValueError("optimized_frequencies_hz must be positive")
+            else:
+                self._closed_form(values)
+        except (ValueError, TypeError) as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply(self, parameters) -> None:
+        if not any(p.name in SHAPER_PARAMETERS for p in parameters):
+            return
+        values = self._values()
+        if values["shaper"] == "optimized":
+            self._start_design(values)
+        else:
+            self._switch(self._closed_form(values), values["shaper"])
+
+    def _switch(self, shaper, label: str) -> None:
+        self._shaper = shaper
+        if self._filter is not None:
+            self._filter.set_shaper(shaper)
+        self.diagnostics.set("shaper", label)
+        self.diagnostics.set("shaper_delay_s", f"{shaper.duration_s:.4f}")
+        self.diagnostics.count("shaper_changes")
+
+    # -- stream ----------------------------------------------------------------------------
+    def _values_of(self, msg) -> np.ndarray:
+        if self._type is PoseStamped:
+            p, q = msg.pose.position, msg.pose.orientation
+            return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], float)
+        return np.array(msg.position, float)
+
+    def _on_sample(self, msg) -> None:
+        if self._pending is not None and self._pending.done():
+            result, self._pending = self._pending.result(), None
+            self._switch(result.shaper, f"optimized (criterion {result.criterion:.2e})")
+        values = self._values_of(msg)
+        if values.size == 0 or not np.all(np.isfinite(values)):
+            self.diagnostics.count("rejected_nonfinite")
+            self.get_logger().warning("non-finite or empty setpoint rejected", throttle_duration_sec=1.0)
+            return
+        if self._filter is None or self._filter.channels != values.size:
+            self._filter = ShaperFilter(self._shaper, self.get_parameter("sample_period_s").value, values.size,
+                                        self.get_parameter("interpolate").value)
+        shaped = self._filter.step(values)
+        if self._type is PoseStamped:
+            out = PoseStamped(header=msg.header)
+            out.pose.position.x, out.pose.position.y, out.pose.position.z = shaped[:3]
+            q = shaped[3:] / (np.linalg.norm(shaped[3:]) or 1.0)
+            out.pose.orientation.x, out.pose.orientation.y, out.pose.orientation.z, out.pose.orientation.w = q
+        else:
+            out = JointState(header=msg.header, name=list(msg.name), position=shaped.tolist())
+        self._publisher.publish(out)
+        self.diagnostics.count("samples")
+
+    def destroy_node(self):
+        self._designer.shutdown(wait=False, cancel_futures=True)
+        return super().destroy_node()
+
+
+def main(args=None) -> int:
+    return run_node(InputShaperNode, args)
+
+
+if __name__ == "__main__":
+    main()
