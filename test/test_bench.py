@@ -24,3 +24,12 @@ def test_kinematics_benchmarks_print_their_figures(capsys):
     assert re.search(r"vectorized check_poses:\s*[\d,]+ poses/s", out)
     assert re.search(r"1200-sector map .*: \d+ ms", out)
     assert re.search(r"batch Newton-Raphson:\s*[\d,]+ solves/s, mean [\d.]+ iterations, converged 100.0%", out)
+
+
+def test_sdp_and_shaping_benchmarks_print_their_figures(capsys):
+    assert run_benchmarks(["sdp", "shaping"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"full grid 300 x 300 x 32 forces x 8 feeds, .*: [\d.]+ s", out)
+    assert re.search(r"brute-force loops [\d.]+ s, vectorized [\d.]+ ms, ratio \d+x", out)
+    assert re.search(r"vectorized filter :\s*[\d,]+ samples/s", out)
+    assert re.search(r"5-impulse design .*: [\d.]+ s", out)

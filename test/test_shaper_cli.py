@@ -1,0 +1,28 @@
+"""`hexctl shaper design|plot`."""
+
+import json
+
+from hex_control.cli import main
+
+
+def test_design_prints_the_sequence_as_json(capsys):
+    assert main(["shaper", "design", "--type", "zvd", "--frequency", "2.0", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["amplitudes"] == [0.25, 0.5, 0.25] and summary["delay_s"] == 0.5
+    assert abs(summary["insensitivity_5pct"] - 0.287) < 0.001
+    assert abs(summary["worst_vibration_in_band"] - 0.2061) < 0.001  # cos^2(0.35 pi) at +-30 %
+
+
+def test_optimized_design_and_plots(tmp_path, capsys):
+    assert main(["shaper", "design", "--type", "optimized", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)  # the progress bar goes to stderr
+    assert summary["criterion"] <= 0.025 and summary["delay_s"] <= 1.5
+    assert summary["worst_vibration_in_band"] < 0.15
+    assert main(["shaper", "plot", "--output", str(tmp_path)]) == 0
+    for name in ("sensitivity.png", "step_responses.png"):
+        assert (tmp_path / name).stat().st_size > 20_000
+
+
+def test_unknown_shaper_is_refused(capsys):
+    assert main(["shaper", "design", "--type", "posicast"]) == 2
+    assert "unknown shaper" in capsys.readouterr().err
