@@ -201,7 +201,7 @@ def _shaper(args) -> int:
         extra = {"insensitivity_5pct": insensitivity(shaper, args.frequency, args.damping)}
     band = np.linspace(args.band[0], args.band[1], 201) * (args.frequency if args.type != "optimized" else 1.0)
     summary = {"type": args.type, "amplitudes": shaper.amplitudes.tolist(), "times_s": shaper.times_s.tolist(),
-               "delay_s": shaper.duration_s, "worst_vibration_in_band": float(residual_vibration(shaper, band,
+               "delay_s": shaper.delay_s, "worst_vibration_in_band": float(residual_vibration(shaper, band,
                                                                                                    args.damping).max()),
                **extra}
     if args.json:
@@ -209,7 +209,7 @@ def _shaper(args) -> int:
     else:
         for a, t in zip(shaper.amplitudes, shaper.times_s):
             print(f"A = {a:.4f}   t = {t:.5f} s")
-        print(f"delay {shaper.duration_s:.4f} s; worst V over the band {summary['worst_vibration_in_band']:.4f}; "
+        print(f"delay {shaper.delay_s:.4f} s; worst V over the band {summary['worst_vibration_in_band']:.4f}; "
               + ", ".join(f"{k} {v:.4g}" for k, v in extra.items()))
     return 0
 

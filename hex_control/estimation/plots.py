@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from hex_control.plotting import plt, save
 
 
 def plot_prediction(path, time_s, measurement, prediction, prediction_std, quantity: str,
@@ -32,6 +30,4 @@ def plot_prediction(path, time_s, measurement, prediction, prediction_std, quant
     ax_err.plot(t[1:], y[1:] - y[:-1], color="0.6", lw=0.5, alpha=0.7, label="persistence error")
     ax_err.set_xlabel("time (s)")
     ax_err.legend(loc="upper right", fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)

@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.colors import ListedColormap
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import ListedColormap  # noqa: E402
-
-from hex_control.grinding.sdp import GRIND, QUIT, Policy  # noqa: E402
+from hex_control.plotting import plt, save
+from hex_control.grinding.sdp import GRIND, QUIT, Policy
 
 
 def _window(ax, policy: Policy, values, title, label, cmap="viridis", trajectory=None):
@@ -37,9 +34,7 @@ def plot_policy_map(path, policy: Policy, trajectory=None) -> None:
     _window(axes[1, 1], policy, policy.penalty, "optimal expected penalty J", "J", cmap="magma",
             trajectory=trajectory)
     fig.suptitle("Grinding sequence policy (seed 002 Fig. 5-23 counterpart; blank = no pass)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)
 
 
 def plot_action_map(path, policy: Policy) -> None:
@@ -50,6 +45,4 @@ def plot_action_map(path, policy: Policy) -> None:
             "action", cmap=cmap)
     ax.images[0].set_clim(-0.5, 2.5)
     assert GRIND == 1 and QUIT == 2  # the colour map's order
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from hex_control.plotting import plt, save
 
 SET_NAMES = ("I strut length", "II platform joint", "III base joint", "IV strut distance")
 SET_COLORS = ("tab:blue", "tab:red", "tab:green", "tab:purple")
@@ -27,9 +25,7 @@ def plot_workspace_3d(path, workspace, title: str) -> None:
     ax.set_zlabel("z (m)")
     ax.set_title(f"{title}\nvolume {workspace.volume_mm3 / 1e9:.3f} m³")
     ax.legend(loc="upper left", fontsize="small", markerscale=3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def plot_slices(path, polygons: dict, heights_mm) -> None:
@@ -45,9 +41,7 @@ def plot_slices(path, polygons: dict, heights_mm) -> None:
         ax.set_ylabel("y (m)")
         ax.set_aspect("equal")
         ax.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def plot_roll_sweep(path, rolls_deg, volumes_mm3, centers_mm, areas_mm2: dict) -> None:
@@ -67,6 +61,4 @@ def plot_roll_sweep(path, rolls_deg, volumes_mm3, centers_mm, areas_mm2: dict) -
     ax_a.set_ylabel("normalized cross-section area")
     ax_a.set_title("Cross-section area vs roll (seed Fig. 13)")
     ax_a.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)

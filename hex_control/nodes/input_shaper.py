@@ -116,7 +116,7 @@ class InputShaperNode(Node):
         if self._filter is not None:
             self._filter.set_shaper(shaper)
         self.diagnostics.set("shaper", label)
-        self.diagnostics.set("shaper_delay_s", f"{shaper.duration_s:.4f}")
+        self.diagnostics.set("shaper_delay_s", f"{shaper.delay_s:.4f}")
         self.diagnostics.count("shaper_changes")
 
     # -- stream ----------------------------------------------------------------------------

@@ -150,26 +150,26 @@ class KinematicsNode(Node):
         self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 10)
         self._names = [f"strut_{i}" for i in range(self.core.strut_count)]
 
-    def _on_inverse(self, request, response):
+    def _fill_reports(self, request, response, service: str) -> bool:
+        """Reports for the request's poses into the response; False (and INVALID_INPUT) if refused."""
         rows, problem = self.core.poses_or_error(request.poses)
         if rows is None:
             self.diagnostics.count("rejected_requests")
-            self.get_logger().warning(f"inverse_kinematics refused: {problem}")
+            self.get_logger().warning(f"{service} refused: {problem}")
             response.error_code.val = Code.INVALID_INPUT
-            return response
+            return False
         response.reports = self.core.reports(rows) if len(rows) else []
-        response.error_code.val = Code.SUCCESS
+        return True
+
+    def _on_inverse(self, request, response):
+        if self._fill_reports(request, response, "inverse_kinematics"):
+            response.error_code.val = Code.SUCCESS
         return response
 
     def _on_test_pose(self, request, response):
-        rows, problem = self.core.poses_or_error(request.poses)
         response.first_unreachable_index = -1
-        if rows is None:
-            self.diagnostics.count("rejected_requests")
-            self.get_logger().warning(f"test_pose refused: {problem}")
-            response.error_code.val = Code.INVALID_INPUT
+        if not self._fill_reports(request, response, "test_pose"):
             return response
-        response.reports = self.core.reports(rows) if len(rows) else []
         unreachable = [k for k, r in enumerate(response.reports) if not r.reachable]
         response.first_unreachable_index = unreachable[0] if unreachable else -1
         response.error_code.val = Code.UNREACHABLE if unreachable else Code.SUCCESS

@@ -3,14 +3,11 @@ response of a lightly damped mode to a shaped and an unshaped step (PNG, Agg).""
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from hex_control.shaping.filter import ShaperFilter  # noqa: E402
-from hex_control.shaping.vibration import mode_response, residual_vibration  # noqa: E402
+from hex_control.plotting import plt, save
+from hex_control.shaping.filter import ShaperFilter
+from hex_control.shaping.vibration import mode_response, residual_vibration
 
 
 def plot_sensitivity(path, shapers: dict, design_hz: float, damping: float = 0.0, tolerance: float = 0.05) -> None:
@@ -19,16 +16,14 @@ def plot_sensitivity(path, shapers: dict, design_hz: float, damping: float = 0.0
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for name, shaper in shapers.items():
         ax.plot(ratios, 100 * residual_vibration(shaper, ratios * design_hz, damping),
-                label=f"{name} ({shaper.duration_s * design_hz:.2f} T)")
+                label=f"{name} ({shaper.delay_s * design_hz:.2f} T)")
     ax.axhline(100 * tolerance, color="0.5", ls="--", lw=0.8)
     ax.set_xlabel("mode frequency / design frequency")
     ax.set_ylabel("residual vibration V (%)")
     ax.set_ylim(0, 100)
     ax.set_title(f"Shaper sensitivity (design {design_hz:g} Hz, damping {damping:g})")
     ax.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def plot_step_responses(path, shapers: dict, mode_hz: float, damping: float, duration_s: float = 3.0,
@@ -45,6 +40,4 @@ def plot_step_responses(path, shapers: dict, mode_hz: float, damping: float, dur
     ax.set_ylabel("mode position (unit step)")
     ax.set_title(f"Step through a {mode_hz:g} Hz mode, damping {damping:g}")
     ax.legend(fontsize="small")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)

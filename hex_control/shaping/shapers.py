@@ -40,7 +40,8 @@ class Shaper:
         object.__setattr__(self, "times_s", t[order])
 
     @property
-    def duration_s(self) -> float:
+    def delay_s(self) -> float:
+        """Time of the last impulse: the delay the shaper adds (seed 003 eq. 6)."""
         return float(self.times_s[-1])
 
 
