@@ -2,6 +2,7 @@
 
 import math
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -56,8 +57,12 @@ def planner(spawn, tmp_path):
 def send(ros, goal, feedback=None):
     client = ActionClient(ros.node("grind_client"), GrindBead, "/sequence_planner/grind_bead")
     assert client.wait_for_server(timeout_sec=20.0)
+    # wait_for_server sees the server's request readers; its response writers may not have
+    # matched this client yet (a known DDS discovery race that loses the first response),
+    # and the client cannot observe that: give discovery a moment before the one goal
+    time.sleep(1.0)
     future = client.send_goal_async(goal, feedback_callback=feedback)
-    wait_until(future.done, 10.0, what="goal acceptance")
+    wait_until(future.done, 20.0, what="goal acceptance")
     return future.result()
 
 
