@@ -13,6 +13,7 @@ NODES = {
     "kinematics": "hex_control.nodes.kinematics:main",
     "sequence_planner": "hex_control.nodes.sequence_planner:main",
     "input_shaper": "hex_control.nodes.input_shaper:main",
+    "force_controller": "hex_control.nodes.force_controller:main",
 }
 
 setup(

@@ -1,0 +1,163 @@
+"""Node ``force_controller``: the bottom tier -- the force loop (seed 002 ch. 7).
+
+At ``rate_hz`` (node clock; sim time when use_sim_time is set) the PI of eq. 7.6
+(:class:`hex_control.control.pi.TustinPI`) turns the force error into a table position
+command, optionally through a roll-off filter (low-pass or notch, section 8.3 item 2) and
+with the control-rate load prediction as feed-forward.
+
+Topics:
+    /grinding/force_trajectory  hex_control_msgs/ForceTrajectory  in  desired force vs time
+                                 (time_from_start_s measured from header.stamp)
+    ~/setpoint                   std_msgs/Float64                  in  a direct desired force (N)
+    /plant/wrench                geometry_msgs/WrenchStamped       in  measured force, wrench.force.z (N)
+    /load_predictor/force/prediction  LoadPrediction              in  feed-forward (optional)
+    /plant/force_axis_command    std_msgs/Float64                  out table position command (mm)
+    /diagnostics
+
+Watchdog: when the setpoint or the measurement is older than its timeout, the command
+ramps to ``output_min_mm`` (retracted: no force) over ``ramp_down_s`` and a WARN is
+reported; the loop restarts bumplessly when both are fresh again. Non-finite inputs are
+rejected and counted; the command is always clamped to [output_min_mm, output_max_mm].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import WrenchStamped
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.time import Time
+from std_msgs.msg import Float64
+
+from hex_control.control.filters import low_pass, notch
+from hex_control.control.pi import TustinPI
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.runtime import run_node
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
+
+
+class ForceControllerNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("force_controller", **kwargs)
+        read_only = ParameterDescriptor(read_only=True)
+        for name, default in (("rate_hz", 200.0), ("kp_mm_per_n", 0.002), ("ki_mm_per_n_s", 0.05),
+                              ("output_min_mm", -2.0), ("output_max_mm", 2.0), ("setpoint_timeout_s", 0.5),
+                              ("measurement_timeout_s", 0.1), ("ramp_down_s", 0.5),
+                              ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0)):
+            self.declare_parameter(name, default, read_only)
+        p = lambda name: self.get_parameter(name).value  # noqa: E731
+        self.period_s = 1.0 / p("rate_hz")
+        self.limits = (p("output_min_mm"), p("output_max_mm"))
+        self.pi = TustinPI(p("kp_mm_per_n"), p("ki_mm_per_n_s"), self.period_s, *self.limits)
+        self.pi.reset(self.limits[0])
+        kind = p("roll_off")
+        if kind not in ("none", "lowpass", "notch"):
+            raise ValueError(f"roll_off must be none, lowpass or notch, got {kind!r}")
+        self.filter = {"none": None, "lowpass": low_pass, "notch": notch}[kind]
+        self.filter = self.filter(p("roll_off_hz"), self.period_s) if self.filter else None
+        if self.filter is not None:
+            self.filter.reset(self.limits[0])
+        self.diagnostics = Diagnostics(self)
+        self.command_mm = self.limits[0]
+        self.trajectory = None
+        self.direct_setpoint = None
+        self.setpoint_time = None
+        self.measured_n = None
+        self.measured_time = None
+        self.feed_forward_n = 0.0
+        self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
+        self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
+        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, 10)
+        self.create_subscription(Float64, "~/setpoint", self._on_setpoint, 10)
+        self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, 100)
+        self.create_subscription(LoadPrediction, "/load_predictor/force/prediction", self._on_prediction, 10)
+        self.create_timer(self.period_s, self._tick)
+
+    # -- inputs ----------------------------------------------------------------------------
+    def _reject(self, what: str) -> None:
+        self.diagnostics.count(f"rejected_{what}")
+        self.get_logger().warning(f"non-finite {what} rejected", throttle_duration_sec=1.0)
+
+    def _on_trajectory(self, msg: ForceTrajectory) -> None:
+        t, f = np.asarray(msg.time_from_start_s, float), np.asarray(msg.normal_force_n, float)
+        if t.size == 0 or t.shape != f.shape or not (np.all(np.isfinite(t)) and np.all(np.isfinite(f))) \
+                or np.any(np.diff(t) <= 0) or np.any(f < 0):
+            self._reject("trajectory")
+            return
+        self.trajectory = (Time.from_msg(msg.header.stamp), t, f)
+        self.direct_setpoint = None
+        self.setpoint_time = self.get_clock().now()
+
+    def _on_setpoint(self, msg: Float64) -> None:
+        if not (math.isfinite(msg.data) and msg.data >= 0):
+            self._reject("setpoint")
+            return
+        self.direct_setpoint, self.trajectory = msg.data, None
+        self.setpoint_time = self.get_clock().now()
+
+    def _on_wrench(self, msg: WrenchStamped) -> None:
+        if not math.isfinite(msg.wrench.force.z):
+            self._reject("measurement")
+            return
+        self.measured_n, self.measured_time = msg.wrench.force.z, self.get_clock().now()
+
+    def _on_prediction(self, msg: LoadPrediction) -> None:
+        if math.isfinite(msg.prediction) and math.isfinite(msg.mean):
+            self.feed_forward_n = msg.prediction - msg.mean
+        else:
+            self._reject("prediction")
+
+    # -- loop ------------------------------------------------------------------------------
+    def _desired(self, now) -> float | None:
+        if self.direct_setpoint is not None:
+            return self.direct_setpoint
+        if self.trajectory is not None:
+            start, t, f = self.trajectory
+            elapsed = (now - start).nanoseconds * 1e-9
+            if elapsed > t[-1]:
+                return None  # the trajectory is over
+            return float(np.interp(elapsed, t, f))
+        return None
+
+    def _stale(self, stamp, timeout: float, now) -> bool:
+        return stamp is None or (now - stamp).nanoseconds * 1e-9 > timeout
+
+    def _tick(self) -> None:
+        now = self.get_clock().now()
+        desired = self._desired(now)
+        fresh_setpoint = desired is not None and (self.trajectory is not None or not self._stale(
+            self.setpoint_time, self.get_parameter("setpoint_timeout_s").value, now))
+        fresh_measurement = not self._stale(self.measured_time, self.get_parameter("measurement_timeout_s").value, now)
+        if fresh_setpoint and fresh_measurement:
+            if self.tripped:
+                self.tripped = False
+                self.pi.reset(self.command_mm)  # bumpless restart from where the ramp left it
+                self.diagnostics.ok("tracking")
+            feed_forward = self.get_parameter("feed_forward_mm_per_n").value * self.feed_forward_n
+            command = self.pi.step(desired - self.measured_n, feed_forward)
+            if self.filter is not None:
+                command = self.filter.step(command)
+        else:
+            if not self.tripped:  # was tracking: a real watchdog trip
+                self.tripped = True
+                self.diagnostics.count("watchdog_trips")
+                reason = "setpoint" if not fresh_setpoint else "measurement"
+                self.diagnostics.warn(f"watchdog: stale {reason}, retracting")
+                self.get_logger().warning(f"watchdog: stale {reason}, ramping the force to zero")
+            span = self.limits[1] - self.limits[0]
+            step = span * self.period_s / self.get_parameter("ramp_down_s").value
+            command = max(self.command_mm - step, self.limits[0])
+            if self.filter is not None:
+                self.filter.reset(command)
+        self.command_mm = min(max(command, self.limits[0]), self.limits[1])
+        self.publisher.publish(Float64(data=self.command_mm))
+
+
+def main(args=None) -> int:
+    return run_node(ForceControllerNode, args)
+
+
+if __name__ == "__main__":
+    main()
