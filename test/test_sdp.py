@@ -76,13 +76,13 @@ def test_near_constant_cut_fraction_with_the_fastest_feed_below_the_threshold():
 def test_maximum_force_above_the_threshold_and_passes_timed_to_the_deadline():
     """Rules 4-5: where the target cannot be reached, grind with the maximum force; where a
     single pass can end at the deadline, time it to end there."""
-    durations = sorted(set(POLICY.duration_s[~np.isnan(POLICY.duration_s)]))
+    durations = sorted(set(POLICY.pass_duration_s[~np.isnan(POLICY.pass_duration_s)]))
     for t in durations[:-1]:
         for x in (1.5, 1.9):
             k, i = stage(t), column(x)
             assert POLICY.action[k, i] == GRIND
             assert POLICY.force_n[k, i] == PROCESS.force_max_n
-            assert POLICY.duration_s[k, i] == t  # the pass ends exactly at the deadline
+            assert POLICY.pass_duration_s[k, i] == t  # the pass ends exactly at the deadline
 
 
 def test_convexity_of_time_slices_and_where_the_model_breaks_it():

@@ -141,7 +141,7 @@ def _kernels(nodes_mm: np.ndarray, step_mm: float):
 class Policy:
     """Tables over (time stage, material state) and the run-time lookup.
 
-    ``action`` WAIT/GRIND/QUIT; ``force_n``, ``feed_mm_s``, ``duration_s``, ``cut_mm`` (mean
+    ``action`` WAIT/GRIND/QUIT; ``force_n``, ``feed_mm_s``, ``pass_duration_s``, ``cut_mm`` (mean
     cut depth) NaN where not grinding; ``penalty`` is J*; ``cut_fraction`` = mean delta / X.
     """
 
@@ -150,7 +150,7 @@ class Policy:
     action: np.ndarray
     force_n: np.ndarray
     feed_mm_s: np.ndarray
-    duration_s: np.ndarray
+    pass_duration_s: np.ndarray
     cut_mm: np.ndarray
     penalty: np.ndarray
     metadata: dict
@@ -188,12 +188,12 @@ class Policy:
                 and self.feed_mm_s[k, i] == self.feed_mm_s[k, i + 1]):
             force = (1 - w) * self.force_n[k, i] + w * self.force_n[k, i + 1]
         return {"action": ACTION_NAMES[action], "force_n": float(force), "feed_mm_s": float(feed),
-                "duration_s": float(self.duration_s[k, near]), "stage_time_s": float(self.time_s[k]),
+                "duration_s": float(self.pass_duration_s[k, near]), "stage_time_s": float(self.time_s[k]),
                 "expected_penalty": self.expected_penalty(time_remaining_s, material_mm)}
 
     def save(self, path) -> None:
         arrays = {name: getattr(self, name) for name in
-                  ("time_s", "material_mm", "action", "force_n", "feed_mm_s", "duration_s", "cut_mm", "penalty")}
+                  ("time_s", "material_mm", "action", "force_n", "feed_mm_s", "pass_duration_s", "cut_mm", "penalty")}
         np.savez_compressed(path, metadata=json.dumps(self.metadata), **arrays)
 
     @classmethod
