@@ -29,11 +29,13 @@ class PassExecutor:
         self.node = ros.node("pass_executor")
         self.rng = np.random.default_rng(seed)
         self.answered: list[tuple[str, int]] = []
+        self.commanded: list[int] = []  # every pass index the planner asked for
         self.hold_from = math.inf
         self.publisher = self.node.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
         self.node.create_subscription(PassCommand, "/grinding/pass_command", self.on_command, LATCHED)
 
     def on_command(self, command: PassCommand) -> None:
+        self.commanded.append(command.pass_index)
         key = (command.job_id, command.pass_index)
         if key in self.answered or command.pass_index >= self.hold_from:
             return
@@ -112,7 +114,8 @@ def test_cancel_ends_the_job(ros, planner):
     executor.hold_from = 1  # the second pass never reports
     handle = send(ros, GrindBead.Goal(job_id="bead2", bead_height_mm=1.5, bead_width_mm=12.5,
                                       bead_length_mm=300.0, deadline_s=120.0))
-    wait_until(lambda: len(executor.answered) == 1, 10.0, what="the first pass")
+    # the planner has applied pass 0's result once it asks for pass 1 (which is held)
+    wait_until(lambda: 1 in executor.commanded, 10.0, what="the second pass command")
     cancel = handle.cancel_goal_async()
     wait_until(cancel.done, 10.0, what="the cancel response")
     outcome = result_of(handle)
