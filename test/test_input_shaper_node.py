@@ -8,7 +8,6 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
 from hex_control.nodes.input_shaper import InputShaperNode
-from hex_control.shaping.shapers import zvd
 from ros_harness import wait_until
 
 

@@ -4,7 +4,6 @@ constraint sets; a 1200-sector map at eps = 1 mm under 0.2 s; a 0-30 deg roll sw
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np

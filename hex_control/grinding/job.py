@@ -77,8 +77,7 @@ class GrindingJob:
                 break
         if not records or records[0].get("type") != "goal":
             raise ValueError(f"{log_path} is not a job log")
-        goal = JobGoal(**{k: v for k, v in records[0].items() if k != "type"})
-        job = cls(goal, policy, charges, log_path, replay=True)
+        job = cls(read_goal(log_path), policy, charges, log_path, replay=True)
         for record in records[1:]:
             job._apply(record)
         return job
@@ -131,8 +130,8 @@ class GrindingJob:
                           "cut_depth_mm": None}
                 self._record(record)
                 return record
-            shortest = float(min(self.policy.metadata["feeds_mm_s"], key=lambda v: -v))
-            shortest_s = self.goal.bead_length_mm / shortest + self.policy.metadata["process"]["reset_time_s"]
+            fastest_feed = max(self.policy.metadata["feeds_mm_s"])
+            shortest_s = self.goal.bead_length_mm / fastest_feed + self.policy.metadata["process"]["reset_time_s"]
             if (decision["action"] == "wait" and x > self.charges.deadline.tolerance_mm
                     and t - step >= shortest_s):
                 self._record({"type": "idle", "time_remaining_s": t - step})  # a pass starts later
@@ -161,6 +160,14 @@ class GrindingJob:
             self._record({"type": "end", "reason": reason, "message": message, "charge": self.final_charge(),
                           "material_mm": self.state.material_mm, "time_remaining_s": self.state.time_remaining_s,
                           "passes": self.state.passes})
+
+
+def read_goal(log_path: Path) -> JobGoal:
+    """The goal recorded on a job log's first line."""
+    first = json.loads(Path(log_path).read_text().split("\n", 1)[0])
+    if first.get("type") != "goal":
+        raise ValueError(f"{log_path} is not a job log")
+    return JobGoal(**{k: v for k, v in first.items() if k != "type"})
 
 
 def new_job_id() -> str:

@@ -55,8 +55,8 @@ class ForceControllerNode(Node):
         kind = p("roll_off")
         if kind not in ("none", "lowpass", "notch"):
             raise ValueError(f"roll_off must be none, lowpass or notch, got {kind!r}")
-        self.filter = {"none": None, "lowpass": low_pass, "notch": notch}[kind]
-        self.filter = self.filter(p("roll_off_hz"), self.period_s) if self.filter else None
+        factory = {"none": None, "lowpass": low_pass, "notch": notch}[kind]
+        self.filter = factory(p("roll_off_hz"), self.period_s) if factory else None
         if self.filter is not None:
             self.filter.reset(self.limits[0])
         self.diagnostics = Diagnostics(self)

@@ -17,7 +17,6 @@ switches to it when ready.
 
 from __future__ import annotations
 
-import math
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np

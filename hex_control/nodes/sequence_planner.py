@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 import yaml
-from action_msgs.msg import GoalStatus  # noqa: F401  (documentation of the result states)
+from action_msgs.msg import GoalStatus
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
@@ -35,7 +35,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config, parse_planner_config
-from hex_control.grinding.job import ABORTED, CANCELLED, DONE, QUIT, GrindingJob, JobGoal, new_job_id, unfinished_logs
+from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, GrindingJob, JobGoal, new_job_id,
+                                      read_goal, unfinished_logs)
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.runtime import run_node
@@ -120,8 +121,7 @@ class SequencePlannerNode(Node):
         logs = unfinished_logs(self.job_dir) if self.job_dir.is_dir() else []
         if not logs:
             return
-        first = [line for line in logs[-1].read_text().splitlines() if line][0]
-        goal = JobGoal(**{k: v for k, v in yaml.safe_load(first).items() if k != "type"})
+        goal = read_goal(logs[-1])
         process, policy = self._policy_for(goal)
         self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
