@@ -6,6 +6,7 @@ import control
 import numpy as np
 import pytest
 
+from hex_control.control.force_law import PIForceLaw
 from hex_control.control.pi import TustinPI
 from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
 
@@ -48,7 +49,7 @@ def test_linear_closed_loop_matches_python_control():
     table.reset(-1.0)  # at the contact point: zero force
     pi = TustinPI(kp, ki, period)
     pi.reset(-1.0)  # bumpless start from the held table position
-    log = simulate_force_loop(table, pi, lambda _t: 20.0, period, 4.0)
+    log = simulate_force_loop(table, PIForceLaw(pi), lambda _t: 20.0, period, 4.0)
     got = control.step_info(log["measured"], log["time"])
     assert got["RiseTime"] == pytest.approx(expected["RiseTime"], rel=0.03)
     assert got["Overshoot"] == pytest.approx(expected["Overshoot"], abs=1.0)
@@ -57,7 +58,7 @@ def test_linear_closed_loop_matches_python_control():
     table.reset(-1.0)
     pi = TustinPI(kp, ki, period)
     pi.reset(-1.0)
-    fine = np.max(np.abs(simulate_force_loop(table, pi, lambda _t: 20.0, period, 4.0)["measured"] - np.squeeze(y_ref)))
+    fine = np.max(np.abs(simulate_force_loop(table, PIForceLaw(pi), lambda _t: 20.0, period, 4.0)["measured"] - np.squeeze(y_ref)))
     assert coarse < 0.1 and fine < coarse / 8  # 0.5 % of the step, shrinking with the step size
 
 
@@ -88,3 +89,40 @@ def test_runout_is_a_force_at_the_disk_frequency():
     frequency = np.fft.rfftfreq(len(forces), 1e-4)[np.argmax(spectrum)]
     assert frequency == pytest.approx(35.0, abs=0.2)
     assert np.max(forces) == pytest.approx(p.stiffness_n_mm * 0.02, rel=0.02)
+
+
+def test_appendix_b_model_has_the_9_hz_pole_of_eq_7_3():
+    """Eq. 7.2 re-derived from Fig. B-7 with the Appendix B constants (p_a = 1100 rad/s,
+    z_a = 5000 rad/s): unit DC gain, a real pole at 9.0 Hz -- the dominant pole of the
+    two-pole fit (7.3) -- and a well-damped pair far above it (313 Hz, damping 0.47)."""
+    from hex_control.plant.force_table import appendix_b_position_loop
+    num, den = appendix_b_position_loop()
+    assert len(den) == 4 and len(num) == 2  # third order with one zero: K_G (s + z)/(s^3 + ...)
+    assert np.polyval(num, 0) / np.polyval(den, 0) == pytest.approx(1.0, rel=1e-12)
+    poles = np.roots(den)
+    real = poles[np.abs(poles.imag) < 1e-9].real
+    assert real.size == 1 and -real[0] / (2 * math.pi) == pytest.approx(9.0, abs=0.1)
+    pair = poles[poles.imag > 0][0]
+    assert abs(pair) / (2 * math.pi) == pytest.approx(313, rel=0.01)
+    assert -pair.real / abs(pair) == pytest.approx(0.47, abs=0.01)
+    assert -np.roots(num)[0] == pytest.approx(5000.0)
+
+
+def test_third_order_table_tracks_like_the_two_pole_fit_at_low_frequency():
+    """Both position loops: the same steady state, and a step response whose 63 % time is
+    set by the 9 Hz pole (about 18 ms for one pole at 9 Hz; the 40 Hz pole of 7.3 adds 4 ms)."""
+    times = {}
+    for kind in ("two_pole", "third_order"):
+        table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=-5.0, position_loop=kind), step_s=1e-4)
+        table.reset(0.0)
+        assert table.position_mm == pytest.approx(0.0)
+        trace = []
+        for _ in range(3000):
+            table.step(1.0)
+            trace.append(table.position_mm)
+        assert trace[-1] == pytest.approx(1.0, abs=1e-3)
+        times[kind] = (np.argmax(np.array(trace) >= 1 - math.exp(-1)) + 1) * 1e-4
+    assert times["third_order"] == pytest.approx(1 / (2 * math.pi * 9.0), rel=0.05)
+    assert times["two_pole"] == pytest.approx(times["third_order"] + 0.004, abs=0.002)
+    with pytest.raises(ValueError, match="position_loop"):
+        ForceTable(ForceTableParameters(position_loop="fourth"))

@@ -8,6 +8,7 @@ import math
 import numpy as np
 from scipy.optimize import minimize
 
+from hex_control.control.force_law import PIForceLaw
 from hex_control.control.pi import TustinPI
 from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
 
@@ -27,7 +28,7 @@ def step_itae(kp: float, ki: float, parameters: ForceTableParameters, period_s: 
     table.reset(start_mm)
     pi = TustinPI(kp, ki, period_s)
     pi.reset(start_mm)
-    log = simulate_force_loop(table, pi, lambda _t: force_n, period_s, duration_s)
+    log = simulate_force_loop(table, PIForceLaw(pi), lambda _t: force_n, period_s, duration_s)
     value = itae(log["time"], log["setpoint"] - log["force"])
     return value if math.isfinite(value) else math.inf
 

@@ -1,9 +1,13 @@
 """Node ``force_controller``: the bottom tier -- the force loop (seed 002 ch. 7).
 
-At ``rate_hz`` (node clock; sim time when use_sim_time is set) the PI of eq. 7.6
-(:class:`hex_control.control.pi.TustinPI`) turns the force error into a table position
-command, optionally through a roll-off filter (low-pass or notch, section 8.3 item 2) and
-with the control-rate load prediction as feed-forward.
+Every control period the force law turns the desired and measured force into a table
+position command: ``law`` = ``pi`` (eq. 7.6, optionally through a roll-off filter, low-pass
+or notch, section 8.3 item 2) or ``energy_optimal`` (seed 004 eq. 9-10 on the table model),
+with the control-rate load prediction as feed-forward (:mod:`hex_control.control.force_law`).
+
+``trigger``: ``timer`` runs the loop at ``rate_hz`` on the node clock (sim time when
+use_sim_time is set); ``measurement`` runs it once per received wrench, with the wrench's
+stamp as the time -- what the plant's lock-step mode needs for a deterministic loop.
 
 Topics:
     /grinding/force_trajectory  hex_control_msgs/ForceTrajectory  in  desired force vs time
@@ -31,7 +35,7 @@ from rclpy.node import Node
 from rclpy.time import Time
 from std_msgs.msg import Float64
 
-from hex_control.control.filters import low_pass, notch
+from hex_control.control.force_law import EnergyForceLaw, PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.runtime import run_node
@@ -42,23 +46,30 @@ class ForceControllerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("force_controller", **kwargs)
         read_only = ParameterDescriptor(read_only=True)
-        for name, default in (("rate_hz", 200.0), ("kp_mm_per_n", 0.002), ("ki_mm_per_n_s", 0.05),
-                              ("output_min_mm", -2.0), ("output_max_mm", 2.0), ("setpoint_timeout_s", 0.5),
-                              ("measurement_timeout_s", 0.1), ("ramp_down_s", 0.5),
-                              ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0)):
+        for name, default in (("rate_hz", 200.0), ("trigger", "timer"), ("law", "pi"), ("kp_mm_per_n", 0.002),
+                              ("ki_mm_per_n_s", 0.05), ("output_min_mm", -2.0), ("output_max_mm", 2.0),
+                              ("setpoint_timeout_s", 0.5), ("measurement_timeout_s", 0.1), ("ramp_down_s", 0.5),
+                              ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0),
+                              ("roll_off_quality", 0.5), ("stiffness_n_per_mm", 6e5 / 85**2), ("contact_mm", 0.0),
+                              ("energy_q1", 1.0), ("energy_q2", 1.0), ("energy_r", 1e3),
+                              ("energy_correction_limit_mm", 0.5)):
             self.declare_parameter(name, default, read_only)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.period_s = 1.0 / p("rate_hz")
         self.limits = (p("output_min_mm"), p("output_max_mm"))
-        self.pi = TustinPI(p("kp_mm_per_n"), p("ki_mm_per_n_s"), self.period_s, *self.limits)
-        self.pi.reset(self.limits[0])
-        kind = p("roll_off")
-        if kind not in ("none", "lowpass", "notch"):
-            raise ValueError(f"roll_off must be none, lowpass or notch, got {kind!r}")
-        factory = {"none": None, "lowpass": low_pass, "notch": notch}[kind]
-        self.filter = factory(p("roll_off_hz"), self.period_s) if factory else None
-        if self.filter is not None:
-            self.filter.reset(self.limits[0])
+        if p("trigger") not in ("timer", "measurement"):
+            raise ValueError(f"trigger must be timer or measurement, got {p('trigger')!r}")
+        if p("law") == "pi":
+            self.law = PIForceLaw(TustinPI(p("kp_mm_per_n"), p("ki_mm_per_n_s"), self.period_s, *self.limits),
+                                  roll_off_filter(p("roll_off"), p("roll_off_hz"), self.period_s,
+                                                  p("roll_off_quality")))
+        elif p("law") == "energy_optimal":
+            self.law = EnergyForceLaw(self.period_s, p("stiffness_n_per_mm"), p("contact_mm"), q1=p("energy_q1"),
+                                      q2=p("energy_q2"), r=p("energy_r"),
+                                      correction_limit_mm=p("energy_correction_limit_mm"))
+        else:
+            raise ValueError(f"law must be pi or energy_optimal, got {p('law')!r}")
+        self.law.reset(self.limits[0])
         self.diagnostics = Diagnostics(self)
         self.command_mm = self.limits[0]
         self.trajectory = None
@@ -73,7 +84,9 @@ class ForceControllerNode(Node):
         self.create_subscription(Float64, "~/setpoint", self._on_setpoint, 10)
         self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, 100)
         self.create_subscription(LoadPrediction, "/load_predictor/force/prediction", self._on_prediction, 10)
-        self.create_timer(self.period_s, self._tick)
+        self.measurement_triggered = p("trigger") == "measurement"
+        if not self.measurement_triggered:
+            self.create_timer(self.period_s, lambda: self._tick(self.get_clock().now()))
 
     # -- inputs ----------------------------------------------------------------------------
     def _reject(self, what: str) -> None:
@@ -101,7 +114,12 @@ class ForceControllerNode(Node):
         if not math.isfinite(msg.wrench.force.z):
             self._reject("measurement")
             return
-        self.measured_n, self.measured_time = msg.wrench.force.z, self.get_clock().now()
+        if self.measurement_triggered:
+            self.measured_n = msg.wrench.force.z
+            self.measured_time = Time.from_msg(msg.header.stamp, clock_type=self.get_clock().clock_type)
+            self._tick(self.measured_time)
+        else:
+            self.measured_n, self.measured_time = msg.wrench.force.z, self.get_clock().now()
 
     def _on_prediction(self, msg: LoadPrediction) -> None:
         if math.isfinite(msg.prediction) and math.isfinite(msg.mean):
@@ -124,8 +142,7 @@ class ForceControllerNode(Node):
     def _stale(self, stamp, timeout: float, now) -> bool:
         return stamp is None or (now - stamp).nanoseconds * 1e-9 > timeout
 
-    def _tick(self) -> None:
-        now = self.get_clock().now()
+    def _tick(self, now: Time) -> None:
         desired = self._desired(now)
         fresh_setpoint = desired is not None and (self.trajectory is not None or not self._stale(
             self.setpoint_time, self.get_parameter("setpoint_timeout_s").value, now))
@@ -133,12 +150,10 @@ class ForceControllerNode(Node):
         if fresh_setpoint and fresh_measurement:
             if self.tripped:
                 self.tripped = False
-                self.pi.reset(self.command_mm)  # bumpless restart from where the ramp left it
+                self.law.reset(self.command_mm)  # bumpless restart from where the ramp left it
                 self.diagnostics.ok("tracking")
             feed_forward = self.get_parameter("feed_forward_mm_per_n").value * self.feed_forward_n
-            command = self.pi.step(desired - self.measured_n, feed_forward)
-            if self.filter is not None:
-                command = self.filter.step(command)
+            command = self.law.command(desired, self.measured_n, feed_forward)
         else:
             if not self.tripped:  # was tracking: a real watchdog trip
                 self.tripped = True
@@ -149,8 +164,7 @@ class ForceControllerNode(Node):
             span = self.limits[1] - self.limits[0]
             step = span * self.period_s / self.get_parameter("ramp_down_s").value
             command = max(self.command_mm - step, self.limits[0])
-            if self.filter is not None:
-                self.filter.reset(command)
+            self.law.hold(command)
         self.command_mm = min(max(command, self.limits[0]), self.limits[1])
         self.publisher.publish(Float64(data=self.command_mm))
 
