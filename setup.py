@@ -14,6 +14,7 @@ NODES = {
     "sequence_planner": "hex_control.nodes.sequence_planner:main",
     "input_shaper": "hex_control.nodes.input_shaper:main",
     "force_controller": "hex_control.nodes.force_controller:main",
+    "plant": "hex_control.nodes.plant:main",
 }
 
 setup(

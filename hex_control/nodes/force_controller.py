@@ -115,9 +115,11 @@ class ForceControllerNode(Node):
             self._reject("measurement")
             return
         if self.measurement_triggered:
-            self.measured_n = msg.wrench.force.z
-            self.measured_time = Time.from_msg(msg.header.stamp, clock_type=self.get_clock().clock_type)
-            self._tick(self.measured_time)
+            stamp = Time.from_msg(msg.header.stamp, clock_type=self.get_clock().clock_type)
+            if self.measured_time is not None and stamp <= self.measured_time:
+                return  # a repeat of a measurement already answered (the plant re-sends until answered)
+            self.measured_n, self.measured_time = msg.wrench.force.z, stamp
+            self._tick(stamp)
         else:
             self.measured_n, self.measured_time = msg.wrench.force.z, self.get_clock().now()
 

@@ -1,0 +1,68 @@
+"""The simulated hardware as one object: the force table (with the grinder's compliance,
+runout and sensor) and the machine's struts, advanced together one control period at a
+time at a fixed internal step. Units: mm and N for the force axis, m for struts, s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hex_control.plant.force_table import ForceTable, ForceTableParameters
+from hex_control.plant.machine import Machine, MachineParameters
+
+
+@dataclass(frozen=True)
+class PlantSnapshot:
+    time_s: float
+    force_n: float  # true normal force
+    measured_force_n: float  # what the force sensor reports
+    table_position_mm: float
+    disk_frequency_hz: float
+    strut_lengths_m: np.ndarray | None  # None until the first strut command
+    strut_speeds_m_s: np.ndarray | None
+    deflection_mm: float
+
+
+class PlantSimulator:
+    def __init__(self, table: ForceTableParameters = ForceTableParameters(),
+                 machine: MachineParameters = MachineParameters(), step_s: float = 1e-3, seed: int = 0,
+                 table_start_mm: float = -1.0):
+        self.step_s = step_s
+        self.table = ForceTable(table, step_s=step_s, seed=seed)
+        self.table.reset(table_start_mm)
+        self.machine = Machine(machine, step_s=step_s)
+        self._machine_ready = False
+        self.force_command_mm = table_start_mm
+        self.strut_commands_m = None
+        self.time_s = 0.0
+
+    def command_struts(self, lengths_m) -> None:
+        """Hold these strut commands; the first ever also places the struts there (at rest)."""
+        lengths = np.asarray(lengths_m, float).reshape(-1)
+        if lengths.shape != (self.machine.p.struts,) or not np.all(np.isfinite(lengths)):
+            raise ValueError(f"need {self.machine.p.struts} finite strut lengths (m)")
+        if not self._machine_ready:
+            self.machine.reset(lengths)
+            self._machine_ready = True
+        self.strut_commands_m = lengths
+
+    def advance(self, duration_s: float, force_command_mm: float) -> PlantSnapshot:
+        """Hold the force-axis command for ``duration_s`` (a whole number of internal steps)."""
+        steps = round(duration_s / self.step_s)
+        if steps < 1 or abs(steps * self.step_s - duration_s) > 1e-9:
+            raise ValueError("duration must be a whole number of internal steps")
+        self.force_command_mm = force_command_mm
+        for _ in range(steps):
+            self.table.step(force_command_mm)
+            if self._machine_ready:
+                self.machine.step(self.strut_commands_m)
+        self.time_s += steps * self.step_s
+        return self.snapshot()
+
+    def snapshot(self) -> PlantSnapshot:
+        ready = self._machine_ready
+        return PlantSnapshot(self.time_s, self.table.force_n, self.table.measured_n, self.table.position_mm,
+                             self.table.disk_frequency_hz, self.machine.lengths_m if ready else None,
+                             self.machine.speeds_m_s if ready else None, self.machine.deflection_mm)

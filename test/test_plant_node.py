@@ -1,0 +1,82 @@
+"""Node plant with the force controller over real topics, each in its own process:
+lock-step tracking and bit-for-bit repeatability, real-time rate, strut commands."""
+
+import time
+
+import pytest
+from geometry_msgs.msg import WrenchStamped
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import JointState
+
+from hex_control_msgs.msg import ForceTrajectory
+from ros_harness import wait_until
+
+KEEP = QoSProfile(depth=10_000)
+PLANT = ["hex-plant", "--ros-args", "-p", "stiction_n:=4.8", "-p", "runout_mm:=0.02", "-p", "sensor_noise_n:=0.3",
+         "-p", "seed:=7"]
+CONTROLLER = ["hex-force-controller", "--ros-args", "-p", "use_sim_time:=true", "-p", "trigger:=measurement",
+              "-p", "kp_mm_per_n:=0.0098", "-p", "ki_mm_per_n_s:=0.48"]  # ITAE-tuned gains
+
+
+def _stamp_s(msg) -> float:
+    return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+
+
+def _lockstep_run(ros, spawn, end_time_s: float, trajectory_s: float = 10.0) -> list[tuple[float, float]]:
+    """Controller, then a 20 N trajectory from 0.1 s for ``trajectory_s`` of sim time, then the plant;
+    returns (stamp, true force) until the plant stops at ``end_time_s``."""
+    controller = spawn(CONTROLLER)
+    source = ros.node(f"trajectory_source_{time.monotonic_ns()}")
+    publisher = source.create_publisher(ForceTrajectory, "/grinding/force_trajectory", 10)
+    wait_until(lambda: publisher.get_subscription_count() >= 1, 15.0, what="the controller")
+    trajectory = ForceTrajectory()
+    trajectory.header.stamp.nanosec = 100_000_000
+    trajectory.time_from_start_s = [0.0, trajectory_s]
+    trajectory.normal_force_n = [20.0, 20.0]
+    publisher.publish(trajectory)
+    forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
+    time.sleep(0.5)
+    plant = spawn(PLANT + ["-p", f"end_time_s:={end_time_s}"])
+    wait_until(lambda: forces and _stamp_s(forces[-1]) >= end_time_s - 1e-9, 60.0, what="the end of the run")
+    plant.stop()
+    controller.stop()
+    source.destroy_publisher(publisher)
+    return [(_stamp_s(m), m.wrench.force.z) for m in forces]
+
+
+def test_lockstep_tracks_a_force_step_and_repeats_bit_for_bit(ros, spawn):
+    first = _lockstep_run(ros, spawn, 1.5)
+    second = _lockstep_run(ros, spawn, 1.5)
+    assert first[-1][1] == pytest.approx(20.0, abs=2.0)  # tracked through stiction, runout, noise
+    assert max(f for _, f in first) < 30.0
+    stamps = [s for s, _ in first]
+    assert stamps == sorted(stamps) and len(first) == 301  # t = 0 to 1.5 s every 5 ms, none lost
+    assert first == second  # same seed: the same floats at the same stamps
+
+
+def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime"])
+    states = ros.collect(JointState, "/plant/strut_states", KEEP)
+    wrenches = ros.collect(WrenchStamped, "/plant/wrench", KEEP, publishers=1)
+    commands = ros.node("strut_source").create_publisher(JointState, "/plant/strut_command", 10)
+    wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")
+    names = [f"strut_{i}" for i in range(1, 7)]
+    commands.publish(JointState(name=names, position=[0.6] * 6))
+    wait_until(lambda: states, 10.0, what="strut states")
+    commands.publish(JointState(name=names, position=[0.61] * 6))
+    start_wall, start_count = time.monotonic(), len(wrenches)
+    time.sleep(2.0)
+    rate = (len(wrenches) - start_count) / (time.monotonic() - start_wall)
+    assert rate == pytest.approx(200.0, rel=0.1)  # 5 ms control period at real-time factor 1
+    sim_span = _stamp_s(wrenches[-1]) - _stamp_s(wrenches[start_count])
+    assert sim_span == pytest.approx((len(wrenches) - 1 - start_count) * 0.005, abs=1e-6)
+    assert states[-1].position == pytest.approx([0.61] * 6, abs=1e-6)
+
+
+def test_watchdog_retracts_on_sim_time_when_the_setpoint_ends(ros, spawn):
+    """The trajectory ends at 0.6 s of sim time: the controller trips and ramps to its
+    retracted limit over ramp_down_s (0.5 s); contact is lost within 0.1 s and stays lost."""
+    run = _lockstep_run(ros, spawn, 1.5, trajectory_s=0.5)
+    force_at = {round(s, 3): f for s, f in run}
+    assert force_at[0.6] == pytest.approx(20.0, abs=3.0)
+    assert all(f == 0.0 for s, f in run if s >= 0.7)
