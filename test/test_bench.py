@@ -33,3 +33,13 @@ def test_sdp_and_shaping_benchmarks_print_their_figures(capsys):
     assert re.search(r"brute-force loops [\d.]+ s, vectorized [\d.]+ ms, ratio \d+x", out)
     assert re.search(r"vectorized filter :\s*[\d,]+ samples/s", out)
     assert re.search(r"5-impulse design .*: [\d.]+ s", out)
+
+
+def test_loop_benchmark_runs_the_force_loop_over_ros(capsys):
+    """Two real processes per figure; the figures are reported, only their presence asserted."""
+    assert run_benchmarks(["loop"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"lock-step over ROS, two processes, .*: +[\d,]+ cycles/s", out)
+    for rate in (200, 500):
+        assert re.search(rf"real-time at {rate} Hz: achieved +[\d.]+ Hz, missed +[\d.]+ %, command latency "
+                         r"p50 [\d.]+ ms p99 [\d.]+ ms", out)

@@ -9,7 +9,8 @@ Modes (``mode``):
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
   with the latest command; a period whose measurement went unanswered is a missed cycle.
-With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length).
+With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length). Timing
+counts from the first answered measurement; ``report_file`` also gets it as JSON every second.
 Command latency (measurement out to command in, wall time) and missed cycles are reported
 in ``/diagnostics``.
 
@@ -25,7 +26,9 @@ Topics:
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import time
 
 from geometry_msgs.msg import WrenchStamped
@@ -56,7 +59,7 @@ class PlantNode(Node):
         table_defaults, machine_defaults = ForceTableParameters(), MachineParameters()
         for name, default in (("mode", "lockstep"), ("control_period_s", 0.005), ("internal_step_s", 0.001),
                               ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
-                              ("end_time_s", 0.0),
+                              ("end_time_s", 0.0), ("report_file", ""),
                               ("table_start_mm", -1.0), ("strut_names", ["strut_1", "strut_2", "strut_3",
                                                                          "strut_4", "strut_5", "strut_6"]),
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
@@ -77,7 +80,8 @@ class PlantNode(Node):
         self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"))
         self.command_mm = p("table_start_mm")
         self.timing = LoopTiming()
-        self.started = False  # lock-step: a first command has arrived
+        self.started = False  # a first command has answered a measurement
+        self.loop_start = self.loop_end = None
         self.diagnostics = Diagnostics(self)
         self.clock_publisher = self.create_publisher(Clock, "/clock", 10)
         self.wrench_publisher = self.create_publisher(WrenchStamped, "/plant/wrench", 100)
@@ -86,7 +90,6 @@ class PlantNode(Node):
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
         self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
         self.create_subscription(JointState, "/plant/strut_command", self._on_strut_command, 100)
-        self.wall_start = time.monotonic()
         if self.mode == "realtime":
             self.create_timer(self.period_s / p("real_time_factor"), self._realtime_cycle)
         else:
@@ -100,10 +103,13 @@ class PlantNode(Node):
             self.diagnostics.count("rejected_force_command")
             return
         self.command_mm = msg.data
-        answered = self.timing.answered(time.monotonic())
+        now = time.monotonic()
+        answered = self.timing.answered(now)
+        if answered and not self.started:
+            self.started, self.loop_start = True, now
+            self.timing = LoopTiming()  # count from here: startup is not the loop
         if self.mode == "lockstep":
             if answered:
-                self.started = True
                 self._advance()
             else:
                 self.diagnostics.count("unsolicited_commands")
@@ -120,6 +126,7 @@ class PlantNode(Node):
     def _advance(self) -> None:
         end = self.get_parameter("end_time_s").value
         if 0 < end <= self.sim.time_s + 1e-9:
+            self.loop_end = self.loop_end or time.monotonic()
             return  # the run is over: hold still
         self.timing.cycle()
         self.sim.advance(self.period_s, self.command_mm)
@@ -157,13 +164,18 @@ class PlantNode(Node):
         self.timing.sent(time.monotonic())
 
     def _report(self) -> None:
-        wall = time.monotonic() - self.wall_start
+        wall = (self.loop_end or time.monotonic()) - self.loop_start if self.loop_start is not None else math.nan
         p50, p99 = self.timing.latency_percentiles_ms()
-        for name, value in (("sim_time_s", f"{self.sim.time_s:.3f}"), ("cycles", self.timing.cycles),
-                            ("loop_rate_hz", f"{self.timing.cycles / wall:.1f}"),
-                            ("missed_fraction", f"{self.timing.missed_fraction:.4f}"),
-                            ("latency_p50_ms", f"{p50:.3f}"), ("latency_p99_ms", f"{p99:.3f}")):
-            self.diagnostics.set(name, value)
+        report = {"sim_time_s": self.sim.time_s, "cycles": self.timing.cycles,
+                  "loop_rate_hz": self.timing.cycles / wall if wall > 0 else math.nan,
+                  "missed_fraction": self.timing.missed_fraction, "latency_p50_ms": p50, "latency_p99_ms": p99}
+        for name, value in report.items():
+            self.diagnostics.set(name, f"{value:.4g}")
+        path = self.get_parameter("report_file").value
+        if path:
+            with open(path + ".tmp", "w") as stream:
+                json.dump(report, stream)
+            os.replace(path + ".tmp", path)
 
 
 def main(args=None) -> int:
