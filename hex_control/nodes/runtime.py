@@ -19,6 +19,11 @@ def run_node(node_class, args=None) -> int:
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception:  # noqa: BLE001
+        if rclpy.ok():
+            raise
+        # a signal shut the context down while the executor was building its wait set
+        # ("context is not valid"): that is a normal stop, not an error
     finally:
         if node is not None:
             node.destroy_node()
