@@ -17,7 +17,8 @@ in ``/diagnostics``.
 Topics:
     /clock                      rosgraph_msgs/Clock          out  sim time
     /plant/wrench               geometry_msgs/WrenchStamped  out  sensor force, force.z (N)
-    /plant/true_wrench          geometry_msgs/WrenchStamped  out  the true normal force (N)
+    /plant/true_wrench          geometry_msgs/WrenchStamped  out  the true normal force (N),
+                                                                  transient-local, last 1000
     /plant/strut_states         sensor_msgs/JointState       out  lengths (m), speeds (m/s)
     /plant/deflection           std_msgs/Float64             out  structural-mode deflection (mm)
     /plant/force_axis_command   std_msgs/Float64             in   table position command (mm)
@@ -34,6 +35,7 @@ import time
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
@@ -85,7 +87,9 @@ class PlantNode(Node):
         self.diagnostics = Diagnostics(self)
         self.clock_publisher = self.create_publisher(Clock, "/clock", 10)
         self.wrench_publisher = self.create_publisher(WrenchStamped, "/plant/wrench", 100)
-        self.truth_publisher = self.create_publisher(WrenchStamped, "/plant/true_wrench", 100)
+        # transient-local: a late joiner (a logger, a test) still gets the last 1000 states
+        self.truth_publisher = self.create_publisher(WrenchStamped, "/plant/true_wrench", QoSProfile(
+            depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.strut_publisher = self.create_publisher(JointState, "/plant/strut_states", 100)
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
         self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
