@@ -33,9 +33,8 @@ def roll_off_filter(kind: str, frequency_hz: float, period_s: float, quality: fl
 
 
 class PIForceLaw:
-    """u_k = F(z) PI(e_k), e_k = desired - measured force with the limits of the PI applied before the filter; the filter's
-    output stays inside them because both filters have unit DC gain and the command is
-    clamped again by whoever sends it."""
+    """u_k = F(z) PI(e_k), e_k = desired - measured force. The PI's limits apply before the
+    filter, which may overshoot them briefly: whoever sends the command clamps it again."""
 
     def __init__(self, pi: TustinPI, roll_off=None):
         self.pi, self.roll_off = pi, roll_off

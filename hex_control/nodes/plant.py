@@ -95,7 +95,7 @@ class PlantNode(Node):
         self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
         self.create_subscription(JointState, "/plant/strut_command", self._on_strut_command, 100)
         if self.mode == "realtime":
-            self.create_timer(self.period_s / p("real_time_factor"), self._realtime_cycle)
+            self.create_timer(self.period_s / p("real_time_factor"), self._advance)
         else:
             self.create_timer(p("lockstep_timeout_s") / 4, self._lockstep_watchdog)
         self.create_timer(1.0, self._report)
@@ -135,9 +135,6 @@ class PlantNode(Node):
         self.timing.cycle()
         self.sim.advance(self.period_s, self.command_mm)
         self._publish_state()
-
-    def _realtime_cycle(self) -> None:
-        self._advance()
 
     def _lockstep_watchdog(self) -> None:
         pending = self.timing.pending_since_s
