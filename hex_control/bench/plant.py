@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
-from scipy.signal import cont2discrete, dlsim
+from scipy.signal import cont2discrete, dlsim, tf2ss
 
 from hex_control.bench import benchmark, best_time
-from hex_control.plant.force_table import ForceTable, ForceTableParameters
+from hex_control.plant.force_table import ForceTable, ForceTableParameters, position_loop
 
 
 @benchmark("plant")
@@ -22,9 +21,7 @@ def plant_speed(quick: bool) -> list[str]:
         for _ in range(n):
             table.step(0.3)
     stepped_s = best_time(stepped, repeat=3)
-    b1, b2 = 2 * math.pi * 9, 2 * math.pi * 40
-    linear = cont2discrete((np.array([[0, 1], [-b1 * b2, -(b1 + b2)]]), np.array([[0], [b1 * b2]]),
-                            np.eye(2), np.zeros((2, 1))), 1e-3, method="zoh")
+    linear = cont2discrete(tf2ss(*position_loop("two_pole")), 1e-3, method="zoh")
     bulk_s = best_time(lambda: dlsim(linear, np.full(n, 0.3)), repeat=3)
     return [f"force table at 1 kHz (stiction, contact, runout, sensor, noise), {n} steps",
             f"step by step : {n / stepped_s:12,.0f} steps/s (target >= 100,000), "

@@ -25,7 +25,7 @@ import numpy as np
 
 from hex_control.control.force_law import PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
-from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
+from hex_control.plant.force_table import ForceTable, ForceTableParameters, position_loop, simulate_force_loop
 
 BASE_GAINS = (0.002, 0.05)  # K_p mm/N, K_I mm/(N s) at gain scale 1
 
@@ -56,9 +56,9 @@ def linear_figures(gain_scale: float, rate_hz: float, roll_off: RollOff = RollOf
                    band_hz: tuple[float, float] = (20.0, 50.0)) -> LoopFigures:
     """Frequency-domain figures of the sampled loop at one gain scale."""
     period = 1.0 / rate_hz
-    b1, b2 = 2 * math.pi * parameters.pole1_hz, 2 * math.pi * parameters.pole2_hz
+    num, den = position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz)
     w = 2 * math.pi * parameters.sensor_cutoff_hz
-    table = control.tf([b1 * b2 * parameters.stiffness_n_mm], np.polymul([1, b1], [1, b2]))
+    table = control.tf(parameters.stiffness_n_mm * np.asarray(num), den)
     sensor = control.tf([w * w], [1, 2 * parameters.sensor_damping * w, w * w])
     loop_plant = control.sample_system(table * sensor, period, method="zoh")
     force_plant = control.sample_system(table, period, method="zoh")
@@ -105,7 +105,7 @@ def thesis_ramp(t: float) -> float:
     return 10.0 + 20.0 * min(max((t - 0.5) / 3.0, 0.0), 1.0)
 
 
-def grinding_table(runout_mm: float = 0.05, seed: int = 0) -> ForceTableParameters:
+def grinding_table(runout_mm: float = 0.05) -> ForceTableParameters:
     """The table while grinding: 4.8 N stiction, runout at 50 Hz idle slowing 1 Hz/N
     (20 Hz at 30 N), 0.3 N sensor noise."""
     return ForceTableParameters(stiction_n=4.8, runout_mm=runout_mm, disk_frequency_hz=50.0,

@@ -39,6 +39,7 @@ from hex_control.control.force_law import EnergyForceLaw, PIForceLaw, roll_off_f
 from hex_control.control.pi import TustinPI
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.runtime import run_node
+from hex_control.plant.force_table import ForceTableParameters
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
 
 
@@ -50,7 +51,7 @@ class ForceControllerNode(Node):
                               ("ki_mm_per_n_s", 0.05), ("output_min_mm", -2.0), ("output_max_mm", 2.0),
                               ("setpoint_timeout_s", 0.5), ("measurement_timeout_s", 0.1), ("ramp_down_s", 0.5),
                               ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0),
-                              ("roll_off_quality", 0.5), ("stiffness_n_per_mm", 6e5 / 85**2), ("contact_mm", 0.0),
+                              ("roll_off_quality", 0.5), ("stiffness_n_per_mm", ForceTableParameters().stiffness_n_mm), ("contact_mm", 0.0),
                               ("energy_q1", 1.0), ("energy_q2", 1.0), ("energy_r", 1e3),
                               ("energy_correction_limit_mm", 0.5)):
             self.declare_parameter(name, default, read_only)

@@ -141,7 +141,7 @@ class ForceTable:
         self._x = ad @ self._x + bd * self._servo_command
         self.time_s += self.step_s
         self.disk_phase_rad = (self.disk_phase_rad + 2 * math.pi * self.disk_frequency_hz * self.step_s) % (2 * math.pi)
-        self.force_n = self._force(self._output @ self._x)
+        self.force_n = self._force(self.position_mm)
         sd, sb = self._sensor
         self._s = sd @ self._s + sb * self.force_n
         noise = self._rng.normal(0.0, self.p.sensor_noise_n) if self.p.sensor_noise_n > 0 else 0.0
