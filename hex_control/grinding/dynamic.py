@@ -1,0 +1,282 @@
+"""The dynamic grinding model of seed 002 section 6.4 and its simulation (6.5).
+
+A rigid, massless grinder on a rotational spring (stiffness K_S, relaxed angle theta_0)
+grinds with the face of its disk (geometry in ``contact``). The power at the patch fixes
+the removal rate (eq. 6.13, the static model's power law 4.4):
+
+    Pi = omega mu K_S (theta_0 - theta)          F_N = K_S (theta_0 - theta) / R
+    Q  = (Pi - K2) / K1                                                     (6.13)
+
+and the face's motion normal to itself fixes it kinematically (eq. 6.14):
+
+    Q  = A (R* dtheta/dt + V_f sin(theta) - dH/dt cos(theta))              (6.14)
+
+with A the patch area (length along the face x bead width w) and R* the distance from the
+disk centre to the patch centroid. Equating the two gives dtheta/dt (eq. 6.15); the tip
+height is y = H - R sin(theta) (eq. 6.16). omega follows the air motor, eq. 4.8, when the
+process has beta > 0.
+
+What drives the spring is a ``drive``: the height PI of eq. 6.17 (planning), the relaxed-
+angle PI (6.6's variant), or a force schedule (executing a planned force trajectory under
+force control: the robot holds the planned height, the force loop winds the spring).
+
+Integration is classical Runge-Kutta at a fixed step in feed distance. The contour is
+truncated under the swept face between steps only, never inside the stages: a stage that
+truncates removes material the next stage needs, which is the chatter of 6.5
+(``truncate_in_stages`` reproduces it for the tests).
+
+Out of contact the massless disk would jump to its equilibrium; here it relaxes towards it
+with the time constant ``free_swing_s`` (no shorter than the step, which keeps RK4 stable),
+or approaches at about ``approach_mm_s`` under force control. That rate also bounds
+dtheta/dt while the patch is vanishingly small.
+
+Units: mm, s, rad, N; power W; removal rate mm^3/s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hex_control.grinding.contact import DiskPose, clip_below, contact_patch
+from hex_control.grinding.contour import Contour
+from hex_control.grinding.model import WATT, GrindingProcess
+
+
+@dataclass(frozen=True)
+class DiskModel:
+    """The process of the static model plus the rotational spring (K_S 6e5 N mm/rad and
+    theta_0 20 deg are the thesis's test stand, 7.1 and 6.5)."""
+
+    process: GrindingProcess = field(default_factory=GrindingProcess)
+    spring_n_mm_rad: float = 6.0e5
+    relaxed_angle_rad: float = math.radians(20.0)
+    free_swing_s: float = 0.01
+    approach_mm_s: float = 5.0
+
+    def __post_init__(self):
+        if not (self.spring_n_mm_rad > 0 and 0 < self.relaxed_angle_rad < math.pi / 2
+                and self.free_swing_s > 0 and self.approach_mm_s > 0):
+            raise ValueError("need K_S > 0, 0 < theta_0 < 90 deg, free_swing_s > 0, approach_mm_s > 0")
+
+    @property
+    def radius_mm(self) -> float:
+        return self.process.disk_radius_mm
+
+    def force_n(self, angle_rad: float, relaxed_angle_rad: float) -> float:
+        """F_N = K_S (theta_0 - theta) / R: the spring torque carried at the rim."""
+        return self.spring_n_mm_rad * (relaxed_angle_rad - angle_rad) / self.radius_mm
+
+    def power_w(self, force_n: float) -> float:
+        return float(self.process.power_w(max(force_n, 0.0)))
+
+    def removal_rate_mm3_s(self, force_n: float) -> float:
+        """Q = (Pi - K2) / K1 (eq. 6.13), never negative."""
+        p = self.process
+        return max(self.power_w(force_n) - p.wasted_power_w, 0.0) / p.specific_energy_j_mm3
+
+
+@dataclass(frozen=True)
+class DriveState:
+    """What a drive sets at one instant: the centre height H = ``height_mm``; its rate
+    dH/dt = ``height_rate_mm_s`` + ``height_rate_per_angle_rate_mm`` * dtheta/dt (a PI on
+    the tip error couples the two); the normal force; the relaxed angle; the tip error e
+    (mm) whose integral the drive keeps; and how far (rad) the free disk is from its
+    equilibrium, scaled so that relaxing it over the free-swing time is one time constant."""
+
+    height_mm: float
+    height_rate_mm_s: float
+    height_rate_per_angle_rate_mm: float
+    force_n: float
+    relaxed_angle_rad: float
+    error_mm: float
+    free_offset_rad: float
+
+
+class _TipTracking:
+    """The desired tip trajectory z_tip(x), a polyline (mm), and its slope."""
+
+    def __init__(self, tip_x_mm, tip_z_mm):
+        self.tip_x, self.tip_z = np.asarray(tip_x_mm, float), np.asarray(tip_z_mm, float)
+        self.slope = np.diff(self.tip_z) / np.diff(self.tip_x)
+
+    def desired(self, x_mm: float) -> tuple[float, float]:
+        i = int(np.searchsorted(self.tip_x, x_mm)) - 1
+        if i < 0 or i >= self.slope.size:
+            return float(self.tip_z[0] if i < 0 else self.tip_z[-1]), 0.0
+        return float(self.tip_z[i] + self.slope[i] * (x_mm - self.tip_x[i])), float(self.slope[i])
+
+
+class HeightControl(_TipTracking):
+    """Eq. 6.17, dH/dt = G1 de/dt + G2 e with e = z_tip(x_tip) - y, integrated:
+    H = H0 + G1 (e - e0) + G2 int e dt, solved for H (e depends on H through y)."""
+
+    def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
+                 proportional: float = 20.0, integral_per_s: float = 200.0):
+        super().__init__(tip_x_mm, tip_z_mm)
+        self.model, self.g1, self.g2 = model, proportional, integral_per_s
+        self.initial_angle_rad = model.relaxed_angle_rad
+        self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
+
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+        r, g1 = self.model.radius_mm, self.g1
+        sin, cos = math.sin(angle_rad), math.cos(angle_rad)
+        want, slope = self.desired(centre_x_mm - r * cos)
+        height = (self.h0 + g1 * (want + r * sin) + self.g2 * integral_mm_s) / (1 + g1)
+        error = want - height + r * sin
+        theta0 = self.model.relaxed_angle_rad
+        return DriveState(height, (g1 * slope * feed_mm_s + self.g2 * error) / (1 + g1),
+                          g1 * r * (slope * sin + cos) / (1 + g1), self.model.force_n(angle_rad, theta0),
+                          theta0, error, theta0 - angle_rad)
+
+
+class RelaxedAngleControl(_TipTracking):
+    """6.6's variant: the height stays at H0 and a PI on the tip error winds the spring,
+    theta_0 = theta_0,nominal - G1 e - G2 int e dt (gains in rad/mm, rad/(mm s))."""
+
+    def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
+                 proportional_rad_mm: float = 0.05, integral_rad_mm_s: float = 5.0):
+        super().__init__(tip_x_mm, tip_z_mm)
+        self.model, self.g1, self.g2 = model, proportional_rad_mm, integral_rad_mm_s
+        self.initial_angle_rad = model.relaxed_angle_rad
+        self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
+
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+        r = self.model.radius_mm
+        want, _ = self.desired(centre_x_mm - r * math.cos(angle_rad))
+        error = want - self.h0 + r * math.sin(angle_rad)
+        theta0 = self.model.relaxed_angle_rad - self.g1 * error - self.g2 * integral_mm_s
+        # theta_0 falls as theta rises (through e): divide by the loop gain so the free
+        # disk relaxes at one time constant whatever G1 is
+        offset = (theta0 - angle_rad) / (1 + self.g1 * r * math.cos(angle_rad))
+        return DriveState(self.h0, 0.0, 0.0, self.model.force_n(angle_rad, theta0), theta0, error, offset)
+
+
+class ForceSchedule:
+    """Execution under force control: the centre height and the normal force follow
+    planned trajectories of the feed position x_c (mm); the spring's wind-up is whatever
+    gives that force. Without contact the disk approaches at about ``approach_mm_s`` while
+    a force is wanted, and rests at the relaxed angle while none is."""
+
+    def __init__(self, model: DiskModel, centre_x_mm, height_mm, force_n, initial_angle_rad: float):
+        self.model = model
+        self.x, self.h, self.f = (np.asarray(a, float) for a in (centre_x_mm, height_mm, force_n))
+        if not (self.x.ndim == 1 and self.x.size >= 2 and self.x.shape == self.h.shape == self.f.shape
+                and np.all(np.diff(self.x) > 0) and np.all(np.isfinite(self.h)) and np.all(np.isfinite(self.f))):
+            raise ValueError("force schedule: need increasing centre x and finite heights and forces of one length")
+        self.h_slope = np.diff(self.h) / np.diff(self.x)
+        self.initial_angle_rad = initial_angle_rad
+
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+        i = min(max(int(np.searchsorted(self.x, centre_x_mm)) - 1, 0), self.h_slope.size - 1)
+        height = float(np.interp(centre_x_mm, self.x, self.h))
+        # the force as sampled (held between samples): interpolating would ask for force
+        # during the step before the planned contact, and the free disk would dive
+        force = float(self.f[min(int(np.searchsorted(self.x, centre_x_mm, "right")) - 1, self.f.size - 1)]) \
+            if centre_x_mm >= self.x[0] else 0.0
+        relaxed = angle_rad + force * self.model.radius_mm / self.model.spring_n_mm_rad
+        if force > 0:  # the force loop pushes the free disk towards the work
+            offset = self.model.approach_mm_s / self.model.radius_mm * self.model.free_swing_s
+        else:  # no force wanted: the spring is relaxed
+            offset = self.model.relaxed_angle_rad - angle_rad
+        return DriveState(height, float(self.h_slope[i]) * feed_mm_s, 0.0, force, relaxed, 0.0, offset)
+
+
+@dataclass(frozen=True)
+class PassSimulation:
+    """A simulated pass: per-step histories (arrays, units in the names) and the contour
+    after it. ``removed_mm3`` is w times the area between the initial and final contours."""
+
+    history: dict[str, np.ndarray]
+    final: Contour
+    removed_mm3: float
+    multiple_patch_steps: int
+
+    @property
+    def peak_power_w(self) -> float:
+        return float(np.max(self.history["power_w"])) if self.history["power_w"].size else 0.0
+
+
+HISTORY = ("time_s", "centre_x_mm", "tip_x_mm", "tip_z_mm", "height_mm", "angle_rad", "relaxed_angle_rad",
+           "force_n", "power_w", "removal_rate_mm3_s", "patch_area_mm2", "patches", "error_mm")
+
+
+def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float | None = None,
+                  end_tip_x_mm: float | None = None, step_mm: float = 0.05,
+                  truncate_in_stages: bool = False) -> PassSimulation:
+    """Grind one pass at constant feed from the tip at ``start_tip_x_mm`` until the tip
+    reaches ``end_tip_x_mm`` (the contour's ends by default), by RK4 at ``step_mm`` of feed
+    per step, truncating between steps."""
+    if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
+        raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
+    r, width = model.radius_mm, model.process.bead_width_mm
+    start = contour.x_mm[0] if start_tip_x_mm is None else start_tip_x_mm
+    end = contour.x_mm[-1] if end_tip_x_mm is None else end_tip_x_mm
+    x, z, (parent,) = contour.x_mm, contour.z_mm, (contour.parent_mm,)
+    dt = step_mm / feed_mm_s
+    free_swing_s = max(model.free_swing_s, dt)
+    angle, integral = drive.initial_angle_rad, 0.0
+    centre0 = start + r * math.cos(angle)
+    rows = {name: [] for name in HISTORY}
+    multiple = 0
+
+    def drive_pose(time_s, angle_rad, integral_mm_s):
+        centre = centre0 + feed_mm_s * time_s
+        s = drive.state(centre, feed_mm_s, angle_rad, integral_mm_s)
+        return s, DiskPose(centre, s.height_mm, angle_rad, r)
+
+    def rates(time_s, angle_rad, integral_mm_s):
+        nonlocal x, z, parent
+        s, pose = drive_pose(time_s, angle_rad, integral_mm_s)
+        patch = contact_patch(x, z, pose)
+        free_rate = s.free_offset_rad / free_swing_s
+        if patch.length_mm == 0:
+            rate = free_rate
+        else:
+            q = model.removal_rate_mm3_s(s.force_n)
+            cos = math.cos(angle_rad)
+            rate = (q / (patch.length_mm * width) - feed_mm_s * math.sin(angle_rad) + s.height_rate_mm_s * cos) \
+                / (patch.centroid_mm - s.height_rate_per_angle_rate_mm * cos)  # eq. 6.15
+            rate = min(rate, free_rate)
+        if truncate_in_stages:
+            x, z, (parent,) = clip_below(x, z, np.array([pose.tip_x_mm, pose.centre_x_mm]),
+                                         np.array([pose.tip_z_mm, pose.centre_z_mm]), (parent,))
+        return rate, s, pose, patch
+
+    time = 0.0
+    while True:
+        k1, s1, pose, patch = rates(time, angle, integral)
+        _record(rows, model, time, pose, s1, patch)
+        multiple += patch.patches > 1
+        if pose.tip_x_mm >= end:
+            break
+        k2, s2, _, _ = rates(time + dt / 2, angle + dt / 2 * k1, integral + dt / 2 * s1.error_mm)
+        k3, s3, _, _ = rates(time + dt / 2, angle + dt / 2 * k2, integral + dt / 2 * s2.error_mm)
+        k4, s4, _, _ = rates(time + dt, angle + dt * k3, integral + dt * s3.error_mm)
+        angle += dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        integral += dt / 6 * (s1.error_mm + 2 * s2.error_mm + 2 * s3.error_mm + s4.error_mm)
+        time += dt
+        if not 0 < angle < math.pi / 2:
+            raise FloatingPointError(f"integration diverged at tip x {pose.tip_x_mm:.1f} mm (disk angle "
+                                     f"{angle:.3g} rad); use a smaller step_mm than {step_mm}")
+        # between steps: the swept tip path and the face now; all above them is gone
+        _, new = drive_pose(time, angle, integral)
+        x, z, (parent,) = clip_below(x, z, np.array([pose.tip_x_mm, new.tip_x_mm, new.centre_x_mm]),
+                                     np.array([pose.tip_z_mm, new.tip_z_mm, new.centre_z_mm]), (parent,))
+    final = Contour(x, z, parent)
+    removed = width * (np.trapezoid(contour.z_mm, contour.x_mm) - np.trapezoid(z, x))
+    history = {name: np.asarray(values, float) for name, values in rows.items()}
+    return PassSimulation(history, final, float(removed), int(multiple))
+
+
+def _record(rows, model, time, pose, s, patch):
+    force = max(s.force_n, 0.0) if patch.length_mm > 0 else 0.0
+    for name, value in (("time_s", time), ("centre_x_mm", pose.centre_x_mm), ("tip_x_mm", pose.tip_x_mm),
+                        ("tip_z_mm", pose.tip_z_mm), ("height_mm", pose.centre_z_mm), ("angle_rad", pose.angle_rad),
+                        ("relaxed_angle_rad", s.relaxed_angle_rad), ("force_n", force),
+                        ("power_w", model.power_w(force)), ("removal_rate_mm3_s", model.removal_rate_mm3_s(force)),
+                        ("patch_area_mm2", patch.area_mm2(model.process.bead_width_mm)),
+                        ("patches", patch.patches), ("error_mm", s.error_mm)):
+        rows[name].append(value)

@@ -1,0 +1,184 @@
+"""The pass planner (seed 002 sections 6.1 and 6.6, and 8.3 item 3).
+
+Planning by simulation (6.6): the final contour that removes the sequence planner's volume
+(6.1) gives the desired tip trajectory; a simulated controller (eq. 6.17, or the relaxed-
+angle variant) grinds the contour in the dynamic model so that the tip follows it; the
+simulated normal force along the pass is the force trajectory for the force controller.
+Stall guard: a pass whose power would exceed the grinder's allowed fraction (80 %) is
+re-planned shallower by bisection on the depth, and says why.
+
+The static planner (8.3 item 3) is the fast fallback for a flexible disk: removal rate
+from the cross-section to be removed times the feed, force from the power law, the
+spring's deflection from the compliance table.
+
+Units: mm, s, N, rad, W.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hex_control.grinding.contour import Contour, FinalContour, final_contour
+from hex_control.grinding.dynamic import (DiskModel, ForceSchedule, HeightControl, PassSimulation,
+                                          RelaxedAngleControl, simulate_pass)
+from hex_control.grinding.model import WATT, GrindingProcess
+
+CONTROLS = ("height", "relaxed_angle")
+
+
+class PlanningError(ValueError):
+    """A pass command that cannot be planned; the message is the reason."""
+
+
+@dataclass(frozen=True)
+class PassPlan:
+    requested_depth_mm: float
+    planned_depth_mm: float  # smaller than requested when the stall guard cut it
+    feed_mm_s: float
+    target: FinalContour  # the desired final contour and tip trajectory (6.1)
+    simulation: PassSimulation  # the controlled pass (6.6): force, height, power histories
+    reason: str  # why the depth was reduced ('' if it was not)
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.simulation.history["time_s"]
+
+    @property
+    def force_n(self) -> np.ndarray:
+        return self.simulation.history["force_n"]
+
+    @property
+    def centre_x_mm(self) -> np.ndarray:
+        return self.simulation.history["centre_x_mm"]
+
+    @property
+    def height_mm(self) -> np.ndarray:
+        return self.simulation.history["height_mm"]
+
+    def summary(self) -> dict:
+        h = self.simulation.history
+        return {"requested_depth_mm": self.requested_depth_mm, "planned_depth_mm": self.planned_depth_mm,
+                "feed_mm_s": self.feed_mm_s, "duration_s": float(h["time_s"][-1]),
+                "wanted_volume_mm3": self.target.removed_mm3, "simulated_volume_mm3": self.simulation.removed_mm3,
+                "peak_force_n": float(np.max(h["force_n"])), "peak_power_w": self.simulation.peak_power_w,
+                "multiple_patch_steps": self.simulation.multiple_patch_steps, "reason": self.reason}
+
+
+def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float,
+              control: str = "height", step_mm: float = 0.1, shape_mm=None, gains: tuple[float, float] | None = None,
+              reductions: int = 12) -> PassPlan:
+    """Plan one pass of mean cut depth ``cut_depth_mm`` at ``feed_mm_s`` on ``contour``.
+    ``gains``: (G1, G2) of the controller chosen by ``control`` (its defaults if None)."""
+    if control not in CONTROLS:
+        raise PlanningError(f"control must be one of {CONTROLS}, got {control!r}")
+    if not (math.isfinite(cut_depth_mm) and cut_depth_mm > 0):
+        raise PlanningError(f"cut depth must be finite and > 0 mm, got {cut_depth_mm!r}")
+    process = model.process
+    if not (math.isfinite(feed_mm_s) and process.feed_min_mm_s <= feed_mm_s <= process.feed_max_mm_s):
+        raise PlanningError(f"feed speed {feed_mm_s!r} mm/s outside [{process.feed_min_mm_s}, "
+                            f"{process.feed_max_mm_s}]")
+    limit_w = process.power_fraction * process.max_power_w
+
+    def attempt(depth):
+        target = final_contour(contour, depth, process.bead_width_mm, shape_mm)
+        controller = HeightControl if control == "height" else RelaxedAngleControl
+        drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], *(gains or ()))
+        return target, simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
+
+    target, simulation = attempt(cut_depth_mm)
+    if simulation.peak_power_w <= limit_w:
+        return PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, target, simulation, "")
+    needed = simulation.peak_power_w
+    low, high, best = 0.0, cut_depth_mm, None
+    for _ in range(reductions):  # bisection on the depth for the deepest pass under the limit
+        middle = (low + high) / 2
+        candidate = attempt(middle)
+        if candidate[1].peak_power_w <= limit_w:
+            low, best = middle, candidate
+        else:
+            high = middle
+    if best is None:
+        raise PlanningError(f"even a {high:.3g} mm pass needs more than {limit_w:.0f} W "
+                            f"({process.power_fraction:.0%} of the grinder's {process.max_power_w:.0f} W)")
+    reason = (f"stall guard: depth reduced from {cut_depth_mm:.3f} to {low:.3f} mm; the requested pass needs "
+              f"{needed:.0f} W, more than {limit_w:.0f} W ({process.power_fraction:.0%} of the grinder's maximum)")
+    return PassPlan(cut_depth_mm, low, feed_mm_s, *best, reason)
+
+
+def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.1) -> PassSimulation:
+    """Grind ``contour`` under force control with the plan's force and height trajectories
+    and the process ``model`` (which may differ from the one the plan assumed)."""
+    drive = ForceSchedule(model, plan.centre_x_mm, plan.height_mm, plan.force_n,
+                          float(plan.simulation.history["angle_rad"][0]))
+    return simulate_pass(contour, model, drive, plan.feed_mm_s, step_mm=step_mm)
+
+
+# -- the static fallback (8.3 item 3) ------------------------------------------------------
+
+@dataclass(frozen=True)
+class Compliance:
+    """Torque (N mm) against deflection (rad) of the grinder's support, a monotone table
+    (6.7: the air hose made it nonlinear) or a line of stiffness K_S."""
+
+    deflection_rad: np.ndarray
+    torque_n_mm: np.ndarray
+
+    def __post_init__(self):
+        d, t = np.asarray(self.deflection_rad, float), np.asarray(self.torque_n_mm, float)
+        if d.ndim != 1 or d.size < 2 or d.shape != t.shape or np.any(np.diff(d) <= 0) or np.any(np.diff(t) <= 0):
+            raise ValueError("compliance table: need increasing deflections and torques of one length >= 2")
+        object.__setattr__(self, "deflection_rad", d)
+        object.__setattr__(self, "torque_n_mm", t)
+
+    @classmethod
+    def linear(cls, stiffness_n_mm_rad: float, max_deflection_rad: float = 0.2) -> Compliance:
+        return cls(np.array([0.0, max_deflection_rad]), np.array([0.0, stiffness_n_mm_rad * max_deflection_rad]))
+
+    def deflection_for(self, torque_n_mm):
+        torque = np.asarray(torque_n_mm, float)
+        if np.any(torque > self.torque_n_mm[-1]):
+            raise PlanningError(f"torque {float(np.max(torque)):.0f} N mm beyond the compliance table")
+        return np.interp(torque, self.torque_n_mm, self.deflection_rad)
+
+
+@dataclass(frozen=True)
+class StaticPassPlan:
+    target: FinalContour
+    x_mm: np.ndarray  # position along the bead (the target contour's points)
+    time_s: np.ndarray  # x / V_f from the start
+    removal_rate_mm3_s: np.ndarray
+    force_n: np.ndarray  # 0 where nothing is to be removed
+    deflection_rad: np.ndarray  # the spring's wind-up for that force (from the table)
+
+
+def force_for_power(process: GrindingProcess, power_w):
+    """Invert Pi = omega(F) R mu F with omega = omega_0 - beta R mu F (eq. 4.8): the smaller
+    root, the one on the motor's stable side."""
+    power = np.asarray(power_w, float) * WATT
+    a = process.disk_radius_mm * process.friction_coefficient
+    k = process.motor_beta_rad_s_per_n_mm * a
+    if k == 0:
+        return power / (process.disk_speed_rad_s * a)
+    disc = (process.disk_speed_rad_s * a) ** 2 - 4 * k * a * power
+    if np.any(disc < 0):
+        raise PlanningError("the air motor cannot deliver that power at any force (it would stall)")
+    return (process.disk_speed_rad_s * a - np.sqrt(disc)) / (2 * k * a)
+
+
+def plan_pass_static(contour: Contour, process: GrindingProcess, compliance: Compliance, cut_depth_mm: float,
+                     feed_mm_s: float, shape_mm=None) -> StaticPassPlan:
+    """8.3 item 3: cross-section to remove w (Z_i - Z_f) along the bead times V_f is the
+    removal rate Q(x); power K1 Q + K2; force from the power; deflection from the table."""
+    if not (math.isfinite(cut_depth_mm) and cut_depth_mm > 0 and math.isfinite(feed_mm_s) and feed_mm_s > 0):
+        raise PlanningError("need a finite cut depth > 0 mm and feed speed > 0 mm/s")
+    target = final_contour(contour, cut_depth_mm, process.bead_width_mm, shape_mm)
+    x = target.contour.x_mm
+    section = process.bead_width_mm * np.maximum(contour.height_at(x) - target.contour.z_mm, 0.0)
+    rate = section * feed_mm_s
+    power = np.where(rate > 0, process.specific_energy_j_mm3 * rate + process.wasted_power_w, 0.0)
+    force = force_for_power(process, power)
+    return StaticPassPlan(target, x, (x - x[0]) / feed_mm_s, rate, force,
+                          compliance.deflection_for(force * process.disk_radius_mm))
