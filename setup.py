@@ -15,6 +15,7 @@ NODES = {
     "input_shaper": "hex_control.nodes.input_shaper:main",
     "force_controller": "hex_control.nodes.force_controller:main",
     "plant": "hex_control.nodes.plant:main",
+    "pass_planner": "hex_control.nodes.pass_planner:main",
 }
 
 setup(

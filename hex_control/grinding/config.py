@@ -1,15 +1,21 @@
-"""The planner's YAML: process, charges, grid and cut-depth model in one file."""
+"""The planners' YAML: the sequence planner's process, charges, grid and cut-depth model;
+the pass planner's process, spring, controller, compliance and bead frame."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
 
 from hex_control.config import config_file
+from hex_control.grinding.dynamic import DiskModel
 from hex_control.grinding.model import GrindingProcess
+from hex_control.grinding.pass_plan import CONTROLS, Compliance
 from hex_control.grinding.sdp import Charges, PlannerGrid, charges_from_dict
 from hex_control.grinding.stochastic import CutDepthModel
+from hex_control.grinding.tool_path import BeadFrame
 
 
 def parse_planner_config(data: dict) -> tuple[GrindingProcess, Charges, PlannerGrid, CutDepthModel]:
@@ -26,3 +32,48 @@ def load_planner_config(source) -> tuple[GrindingProcess, Charges, PlannerGrid, 
     if not path.is_file():
         path = config_file(str(source))
     return parse_planner_config(yaml.safe_load(path.read_text()) or {})
+
+
+@dataclass(frozen=True)
+class PassPlannerConfig:
+    """The pass planner's YAML (config/pass_planner.yaml)."""
+
+    model: DiskModel
+    planner: str  # dynamic | static
+    control: str  # height | relaxed_angle
+    gains: tuple[float, float] | None
+    step_mm: float
+    compliance: Compliance
+    frame: BeadFrame
+    path: dict
+
+
+def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
+    known = {"process", "disk", "planner", "control", "gains", "step_mm", "compliance", "bead_frame", "path"}
+    unknown = set(data) - known
+    if unknown:
+        raise ValueError(f"unknown pass planner sections {sorted(unknown)}")
+    disk = dict(data.get("disk") or {})
+    if "relaxed_angle_deg" in disk:
+        disk["relaxed_angle_rad"] = math.radians(disk.pop("relaxed_angle_deg"))
+    model = DiskModel(GrindingProcess.from_dict(data.get("process") or {}), **disk)
+    planner, control = data.get("planner", "dynamic"), data.get("control", "height")
+    if planner not in ("dynamic", "static") or control not in CONTROLS:
+        raise ValueError(f"planner must be dynamic|static and control one of {CONTROLS}")
+    table = data.get("compliance")
+    compliance = Compliance(table["deflection_rad"], table["torque_n_mm"]) if table \
+        else Compliance.linear(model.spring_n_mm_rad)
+    gains = data.get("gains")
+    path = {"sample_period_s": 0.005, "approach_s": 1.0, "retract_mm": 20.0, "reset_s": 2.0, **(data.get("path") or {})}
+    if set(path) != {"sample_period_s", "approach_s", "retract_mm", "reset_s"}:
+        raise ValueError(f"unknown path fields {sorted(set(path) - {'sample_period_s', 'approach_s', 'retract_mm', 'reset_s'})}")
+    return PassPlannerConfig(model, planner, control, tuple(map(float, gains)) if gains else None,
+                             float(data.get("step_mm", 0.1)), compliance,
+                             BeadFrame(**{k: tuple(v) for k, v in (data.get("bead_frame") or {}).items()}), path)
+
+
+def load_pass_planner_config(source) -> PassPlannerConfig:
+    path = Path(source)
+    if not path.is_file():
+        path = config_file(str(source))
+    return parse_pass_planner_config(yaml.safe_load(path.read_text()) or {})

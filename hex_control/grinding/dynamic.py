@@ -57,6 +57,9 @@ class DiskModel:
     approach_mm_s: float = 5.0
 
     def __post_init__(self):
+        for name in ("spring_n_mm_rad", "relaxed_angle_rad", "free_swing_s", "approach_mm_s"):
+            if not isinstance(getattr(self, name), (int, float)):
+                raise ValueError(f"DiskModel.{name} must be a number, got {getattr(self, name)!r}")
         if not (self.spring_n_mm_rad > 0 and 0 < self.relaxed_angle_rad < math.pi / 2
                 and self.free_swing_s > 0 and self.approach_mm_s > 0):
             raise ValueError("need K_S > 0, 0 < theta_0 < 90 deg, free_swing_s > 0, approach_mm_s > 0")

@@ -182,3 +182,37 @@ def plan_pass_static(contour: Contour, process: GrindingProcess, compliance: Com
     force = force_for_power(process, power)
     return StaticPassPlan(target, x, (x - x[0]) / feed_mm_s, rate, force,
                           compliance.deflection_for(force * process.disk_radius_mm))
+
+
+@dataclass(frozen=True)
+class ForcePlan:
+    """What the pass planner hands down, whichever planner made it: the normal force and
+    the disk centre's (x, H) against time from the start of grinding, the predicted final
+    contour, the depth planned and why it differs from the one requested."""
+
+    time_s: np.ndarray
+    centre_x_mm: np.ndarray
+    height_mm: np.ndarray
+    force_n: np.ndarray
+    final: Contour
+    planned_depth_mm: float
+    reason: str
+
+
+def plan_forces(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float, planner: str = "dynamic",
+                control: str = "height", gains=None, step_mm: float = 0.1,
+                compliance: Compliance | None = None) -> ForcePlan:
+    """The dynamic planner (6.6) or the static one (8.3 item 3; the tool holds the tip on
+    the final contour at the relaxed angle)."""
+    if planner == "dynamic":
+        plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm, gains=gains)
+        return ForcePlan(plan.time_s, plan.centre_x_mm, plan.height_mm, plan.force_n, plan.simulation.final,
+                         plan.planned_depth_mm, plan.reason)
+    if planner != "static":
+        raise PlanningError(f"planner must be 'dynamic' or 'static', got {planner!r}")
+    plan = plan_pass_static(contour, model.process, compliance or Compliance.linear(model.spring_n_mm_rad),
+                            cut_depth_mm, feed_mm_s)
+    angle = model.relaxed_angle_rad
+    return ForcePlan(plan.time_s, plan.x_mm + model.radius_mm * math.cos(angle),
+                     plan.target.contour.z_mm + model.radius_mm * math.sin(angle), plan.force_n,
+                     plan.target.contour, cut_depth_mm, "")

@@ -1,0 +1,89 @@
+"""The machine's path for one pass: approach, grind, retract and the reset move back.
+
+The pass planner works in the bead's plane (x along the bead, z up, mm); ``BeadFrame``
+places that plane in the machine's frame. The tool point is the disk centre. Moves
+between rests follow a cosine blend (zero velocity at both ends); the reset move is what
+the input shaper shapes and what sets t_R.
+
+Units: mm, s; orientation as a unit quaternion (x, y, z, w).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+
+@dataclass(frozen=True)
+class BeadFrame:
+    """Machine coordinates (mm) of the bead's x = 0, z = 0; unit vectors of the bead's x and
+    z in the machine frame; the tool's fixed orientation (roll, pitch, yaw in deg)."""
+
+    origin_mm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    along: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    up: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    orientation_rpy_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        along, up = np.asarray(self.along, float), np.asarray(self.up, float)
+        if not (np.all(np.isfinite(self.origin_mm)) and len(self.origin_mm) == 3):
+            raise ValueError("origin_mm needs three finite values")
+        if abs(np.linalg.norm(along) - 1) > 1e-6 or abs(np.linalg.norm(up) - 1) > 1e-6 or abs(along @ up) > 1e-6:
+            raise ValueError("along and up must be orthogonal unit vectors")
+
+    def positions_mm(self, x_mm, z_mm) -> np.ndarray:
+        x, z = np.asarray(x_mm, float), np.asarray(z_mm, float)
+        return np.asarray(self.origin_mm) + x[:, None] * np.asarray(self.along) + z[:, None] * np.asarray(self.up)
+
+    @property
+    def quaternion_xyzw(self) -> np.ndarray:
+        return Rotation.from_euler("xyz", self.orientation_rpy_deg, degrees=True).as_quat()
+
+
+@dataclass(frozen=True)
+class ToolPath:
+    time_s: np.ndarray  # from the start of the approach
+    positions_mm: np.ndarray  # (n, 3) in the machine frame
+    quaternion_xyzw: np.ndarray  # the fixed tool orientation
+    grind_start_s: float  # when the grinding phase begins (the force trajectory's t = 0)
+    grind_end_s: float
+    reset_start_s: float
+
+
+def _blend(n: int) -> np.ndarray:
+    """0 -> 1 with zero slope at both ends."""
+    return (1 - np.cos(np.linspace(0.0, math.pi, n))) / 2
+
+
+def pass_tool_path(frame: BeadFrame, grind_time_s, centre_x_mm, height_mm, sample_period_s: float = 0.005,
+                   approach_s: float = 1.0, retract_mm: float = 20.0, reset_s: float = 2.0) -> ToolPath:
+    """Rest ``retract_mm`` above the grinding start, descend in ``approach_s``, follow the
+    planned (x, H) of the grinding phase, rise ``retract_mm`` in ``approach_s``, move back
+    above the start in ``reset_s``; sampled every ``sample_period_s``."""
+    t, x, h = (np.asarray(a, float) for a in (grind_time_s, centre_x_mm, height_mm))
+    if not (t.ndim == 1 and t.size >= 2 and t.shape == x.shape == h.shape and np.all(np.diff(t) > 0)):
+        raise ValueError("grinding phase: need increasing times with x and H of the same length")
+    if not (sample_period_s > 0 and approach_s > 0 and reset_s > 0 and retract_mm >= 0):
+        raise ValueError("need positive sample period, approach and reset times, and retract_mm >= 0")
+
+    def samples(duration):
+        return max(2, int(round(duration / sample_period_s)) + 1)
+
+    n = samples(approach_s)
+    approach_x, approach_z = np.full(n, x[0]), h[0] + retract_mm * (1 - _blend(n))
+    grind_t = np.arange(0.0, t[-1] - t[0] + sample_period_s / 2, sample_period_s)
+    grind_x, grind_z = np.interp(grind_t, t - t[0], x), np.interp(grind_t, t - t[0], h)
+    retract_x, retract_z = np.full(n, x[-1]), h[-1] + retract_mm * _blend(n)
+    m = samples(reset_s)
+    reset_x, reset_z = x[-1] + (x[0] - x[-1]) * _blend(m), np.full(m, h[-1] + retract_mm)
+    # join the phases without repeating the shared end points
+    xs = np.concatenate([approach_x, grind_x[1:], retract_x[1:], reset_x[1:]])
+    zs = np.concatenate([approach_z, grind_z[1:], retract_z[1:], reset_z[1:]])
+    times = np.arange(xs.size) * sample_period_s
+    grind_start = (n - 1) * sample_period_s
+    grind_end = grind_start + (grind_t.size - 1) * sample_period_s
+    return ToolPath(times, frame.positions_mm(xs, zs), frame.quaternion_xyzw, grind_start, grind_end,
+                    grind_end + (n - 1) * sample_period_s)

@@ -1,0 +1,218 @@
+"""Node ``pass_planner``: the middle tier -- a PassCommand and the latest contour in, the
+force trajectory and the tool path out (seed 002 ch. 6; library
+:mod:`hex_control.grinding.pass_plan`).
+
+Topics:
+    /grinding/pass_command     (PassCommand, latched)       in
+    /grinding/contour          (Contour, latched)           in   the profile after pass k
+    /grinding/force_trajectory (ForceTrajectory, latched)   out  for the force controller
+    /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
+                                                                 on this node's clock
+    ~/status                   (DiagnosticStatus, latched)  out  OK + summary, or ERROR +
+                                                                 the reason a command was refused
+    /diagnostics
+
+A command for pass k is planned on the contour after k passes (``pass_index`` k and the
+same job, or a contour without a job id). If none has arrived within ``contour_wait_s``
+the command is refused. Planning runs in a worker thread; nothing is published for a
+command until its whole plan exists, and nothing at all for a refused one. A command
+already answered (a latched re-delivery) is ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PoseStamped
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.time import Duration
+
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.grinding.contour import Contour
+from hex_control.grinding.pass_plan import PlanningError, plan_forces
+from hex_control.grinding.tool_path import pass_tool_path
+from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.runtime import run_node
+from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import ForceTrajectory, PassCommand
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def contour_from_message(msg: ContourMsg) -> Contour:
+    parent = list(msg.parent_mm) or None
+    return Contour(np.asarray(msg.x_mm, float), np.asarray(msg.z_mm, float),
+                   None if parent is None else np.asarray(parent, float))
+
+
+def contour_to_message(contour: Contour, job_id: str, pass_index: int, width_mm: float) -> ContourMsg:
+    return ContourMsg(job_id=job_id, pass_index=pass_index, bead_width_mm=float(width_mm),
+                      x_mm=contour.x_mm.tolist(), z_mm=contour.z_mm.tolist(), parent_mm=contour.parent_mm.tolist())
+
+
+class PassPlannerNode(Node):
+    def __init__(self, **kwargs):
+        super().__init__("pass_planner", **kwargs)
+        read_only = ParameterDescriptor(read_only=True)
+        self.declare_parameter("config", "pass_planner.yaml", read_only)
+        self.declare_parameter("contour_wait_s", 5.0, read_only)
+        self.declare_parameter("start_delay_s", 0.2, ParameterDescriptor(
+            description="time from a finished plan to the start of its path (s, node clock)"))
+        self.config = load_pass_planner_config(self.get_parameter("config").value)
+        self.diagnostics = Diagnostics(self)
+        self.contour: ContourMsg | None = None
+        self.pending: PassCommand | None = None
+        self.pending_since = None
+        self.answered: set[tuple[str, int]] = set()
+        self.worker = ThreadPoolExecutor(max_workers=1)
+        self.planning = None  # (command, future)
+        self.path = None  # (start time, ToolPath, next sample index)
+
+        self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+        self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
+        self.setpoint_pub = self.create_publisher(PoseStamped, "/motion/setpoint_raw", 100)
+        self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
+        self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
+        self.create_timer(0.02, self._poll)
+        self.create_timer(self.config.path["sample_period_s"], self._stream)
+
+    # -- inputs --------------------------------------------------------------------------
+    def _on_contour(self, msg: ContourMsg) -> None:
+        self.contour = msg
+        self.diagnostics.count("contours")
+        self._try_plan()
+
+    def _on_command(self, msg: PassCommand) -> None:
+        key = (msg.job_id, msg.pass_index)
+        if key in self.answered or (self.planning and _key(self.planning[0]) == key):
+            return
+        self.diagnostics.count("commands")
+        self.pending, self.pending_since = msg, self.get_clock().now()
+        self._try_plan()
+
+    def _contour_for(self, command: PassCommand) -> ContourMsg | None:
+        c = self.contour
+        if c is None or c.pass_index != command.pass_index or (c.job_id and c.job_id != command.job_id):
+            return None
+        return c
+
+    def _try_plan(self) -> None:
+        if self.pending is None or self.planning is not None:
+            return
+        contour = self._contour_for(self.pending)
+        if contour is None:
+            return
+        command, self.pending = self.pending, None
+        self.planning = (command, self.worker.submit(self._plan, command, contour))
+
+    # -- planning (worker thread: library calls only) ------------------------------------
+    def _plan(self, command: PassCommand, contour_msg: ContourMsg):
+        values = (command.cut_depth_mm, command.feed_speed_mm_s)
+        if not all(math.isfinite(v) for v in values):
+            raise PlanningError(f"non-finite command: cut depth {values[0]!r} mm, feed {values[1]!r} mm/s")
+        try:
+            contour = contour_from_message(contour_msg)
+        except ValueError as exc:
+            raise PlanningError(f"bad contour: {exc}") from None
+        config = self.config
+        model = config.model
+        if contour_msg.bead_width_mm > 0:
+            model = dataclasses.replace(model, process=dataclasses.replace(
+                model.process, bead_width_mm=contour_msg.bead_width_mm))
+        plan = plan_forces(contour, model, command.cut_depth_mm, command.feed_speed_mm_s, config.planner,
+                           config.control, config.gains, config.step_mm, config.compliance)
+        path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, **config.path)
+        return plan, path, model.process.bead_width_mm
+
+    def _poll(self) -> None:
+        if self.pending is not None and self.planning is None and self._contour_for(self.pending) is None:
+            waited = (self.get_clock().now() - self.pending_since).nanoseconds / 1e9
+            if waited > self.get_parameter("contour_wait_s").value:
+                command, self.pending = self.pending, None
+                latest = "none" if self.contour is None else f"the one after {self.contour.pass_index} passes"
+                self._refuse(command, f"no contour for pass {command.pass_index} (latest: {latest})", "no_contour")
+        if self.planning is None or not self.planning[1].done():
+            return
+        command, future = self.planning
+        self.planning = None
+        try:
+            plan, path, width = future.result()
+        except (PlanningError, ValueError, FloatingPointError) as exc:
+            self._refuse(command, str(exc), "unplannable")
+        else:
+            self._publish(command, plan, path, width)
+        self._try_plan()
+
+    # -- outputs -------------------------------------------------------------------------
+    def _refuse(self, command: PassCommand, reason: str, kind: str) -> None:
+        self.answered.add(_key(command))
+        self.diagnostics.count(f"rejected_{kind}")
+        self.get_logger().warn(f"pass {command.pass_index} of job {command.job_id!r} refused: {reason}")
+        self._status(command, DiagnosticStatus.ERROR, reason, {})
+
+    def _publish(self, command: PassCommand, plan, path, width_mm: float) -> None:
+        self.answered.add(_key(command))
+        start = self.get_clock().now() + Duration(seconds=self.get_parameter("start_delay_s").value)
+        grind_start = start + Duration(seconds=path.grind_start_s)
+        msg = ForceTrajectory(job_id=command.job_id, pass_index=command.pass_index,
+                              feed_speed_mm_s=float(command.feed_speed_mm_s),
+                              planned_cut_depth_mm=float(plan.planned_depth_mm),
+                              time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
+                              normal_force_n=plan.force_n.tolist(),
+                              planned_final_contour=contour_to_message(plan.final, command.job_id,
+                                                                       command.pass_index + 1, width_mm))
+        msg.header.stamp = grind_start.to_msg()
+        msg.header.frame_id = "bead"
+        self.trajectory_pub.publish(msg)
+        self.path = (start, path, 0)
+        self.diagnostics.count("planned")
+        summary = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
+                   "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size)}
+        self._status(command, DiagnosticStatus.WARN if plan.reason else DiagnosticStatus.OK,
+                     plan.reason or "planned", summary)
+
+    def _status(self, command: PassCommand, level: int, message: str, values: dict) -> None:
+        pairs = {"job_id": command.job_id, "pass_index": command.pass_index, **values}
+        self.status_pub.publish(DiagnosticStatus(level=level, name=self.get_fully_qualified_name(), message=message,
+                                                 values=[KeyValue(key=k, value=str(v)) for k, v in pairs.items()]))
+
+    def _stream(self) -> None:
+        """Publish the path's samples whose time has come, on this node's clock."""
+        if self.path is None:
+            return
+        start, path, index = self.path
+        elapsed = (self.get_clock().now() - start).nanoseconds / 1e9
+        quaternion = path.quaternion_xyzw
+        while index < path.time_s.size and path.time_s[index] <= elapsed:
+            msg = PoseStamped()
+            msg.header.frame_id = "machine"
+            msg.header.stamp = (start + Duration(seconds=float(path.time_s[index]))).to_msg()
+            p = path.positions_mm[index] / 1000.0
+            msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = float(p[0]), float(p[1]), float(p[2])
+            o = msg.pose.orientation
+            o.x, o.y, o.z, o.w = (float(v) for v in quaternion)
+            self.setpoint_pub.publish(msg)
+            index += 1
+        self.path = None if index >= path.time_s.size else (start, path, index)
+
+    def destroy_node(self):
+        self.worker.shutdown(wait=False, cancel_futures=True)
+        return super().destroy_node()
+
+
+def _key(command: PassCommand) -> tuple[str, int]:
+    return command.job_id, command.pass_index
+
+
+def main(args=None) -> int:
+    return run_node(PassPlannerNode, args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,78 @@
+"""Node pass_planner over real processes: PassCommand + Contour in, ForceTrajectory and the
+tool path out; refused commands give a reason and nothing else."""
+
+import math
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PoseStamped
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from hex_control.grinding.contour import weld_bead
+from hex_control.nodes.pass_planner import contour_to_message
+from hex_control_msgs.msg import ForceTrajectory, PassCommand
+from hex_control_msgs.msg import Contour as ContourMsg
+from ros_harness import wait_until
+
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+BEAD = weld_bead(length_mm=60.0, height_mm=3.0, ripple_mm=0.1, seed=2)
+
+
+@pytest.fixture
+def planner(ros, spawn):
+    spawn(["hex-pass-planner", "--ros-args", "-p", "contour_wait_s:=1.0", "-p", "start_delay_s:=0.0"])
+    node = ros.node("pass_client")
+    outputs = {
+        "trajectory": ros.collect(ForceTrajectory, "/grinding/force_trajectory", LATCHED),
+        "status": ros.collect(DiagnosticStatus, "/pass_planner/status", LATCHED),
+        "path": ros.collect(PoseStamped, "/motion/setpoint_raw", QoSProfile(depth=1000)),
+    }
+    publishers = {"command": node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED),
+                  "contour": node.create_publisher(ContourMsg, "/grinding/contour", LATCHED)}
+    ros.wait_for_match(node, "/grinding/force_trajectory", publishers=1, timeout_s=20.0)
+    ros.wait_for_match(node, "/grinding/pass_command", subscribers=1, timeout_s=20.0)
+    return publishers, outputs
+
+
+def _command(pass_index=0, depth=0.3, feed=10.0):
+    return PassCommand(job_id="job-a", pass_index=pass_index, cut_depth_mm=depth, feed_speed_mm_s=feed,
+                       normal_force_n=45.0)
+
+
+def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
+    publishers, outputs = planner
+    publishers["command"].publish(_command())  # before the contour: it waits for it
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
+                            what="a force trajectory")
+    assert trajectory.pass_index == 0 and trajectory.planned_cut_depth_mm == pytest.approx(0.3)
+    t = np.asarray(trajectory.time_from_start_s)
+    force, x = np.asarray(trajectory.normal_force_n), np.asarray(trajectory.x_mm)
+    assert t.size == force.size == x.size > 100 and np.all(np.diff(t) > 0) and np.all(np.diff(x) > 0)
+    assert t[-1] == pytest.approx(60.0 / 10.0, rel=0.05) and 20.0 < np.max(force) < 150.0
+    final = trajectory.planned_final_contour
+    assert final.pass_index == 1 and len(final.x_mm) == len(final.z_mm) == len(final.parent_mm)
+    removed = 12.5 * (np.trapezoid(BEAD.z_mm, BEAD.x_mm) - np.trapezoid(final.z_mm, final.x_mm))
+    assert removed == pytest.approx(0.3 * 12.5 * 60.0, rel=0.02)
+    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 5.0, what="status")
+    assert status.level == DiagnosticStatus.OK
+    # the path streams on the node's clock: approach (1 s), 6 s of grinding, retract, reset
+    wait_until(lambda: len(outputs["path"]) > 300, 20.0, what="the path to stream")
+    z = np.array([p.pose.position.z for p in outputs["path"]])
+    assert z[0] == pytest.approx(z.max(), abs=1e-6)  # starts retracted above the bead
+    assert np.all(np.isfinite(z))
+
+
+@pytest.mark.parametrize("command, reason", [
+    (_command(depth=math.nan), "non-finite"),
+    (_command(feed=500.0), "feed speed"),
+    (_command(pass_index=3), "no contour for pass 3"),
+])
+def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, command, reason):
+    publishers, outputs = planner
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    publishers["command"].publish(command)
+    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 20.0, what="a refusal")
+    assert status.level == DiagnosticStatus.ERROR and reason in status.message
+    assert outputs["trajectory"] == [] and outputs["path"] == []
