@@ -43,3 +43,10 @@ def test_loop_benchmark_runs_the_force_loop_over_ros(capsys):
     for rate in (200, 500):
         assert re.search(rf"real-time at {rate} Hz: achieved +[\d.]+ Hz, missed +[\d.]+ %, command latency "
                          r"p50 [\d.]+ ms p99 [\d.]+ ms", out)
+
+
+def test_pass_benchmark_prints_steps_per_second_and_ratio(capsys):
+    assert run_benchmarks(["pass"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"150 mm pass .*: [\d.]+ s \(target < 0.5 s\), \d+ steps/s", out)
+    assert float(re.search(r"ratio ([\d.]+)x", out).group(1)) > 0

@@ -208,10 +208,11 @@ HISTORY = ("time_s", "centre_x_mm", "tip_x_mm", "tip_z_mm", "height_mm", "angle_
 
 def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float | None = None,
                   end_tip_x_mm: float | None = None, step_mm: float = 0.05,
-                  truncate_in_stages: bool = False) -> PassSimulation:
+                  truncate_in_stages: bool = False, contact_search=contact_patch) -> PassSimulation:
     """Grind one pass at constant feed from the tip at ``start_tip_x_mm`` until the tip
     reaches ``end_tip_x_mm`` (the contour's ends by default), by RK4 at ``step_mm`` of feed
-    per step, truncating between steps."""
+    per step, truncating between steps. ``contact_search`` finds the patch (the benchmark
+    swaps in the naive whole-contour scan)."""
     if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
         raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
     r, width = model.radius_mm, model.process.bead_width_mm
@@ -233,7 +234,7 @@ def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, s
     def rates(time_s, angle_rad, integral_mm_s):
         nonlocal x, z, parent
         s, pose = drive_pose(time_s, angle_rad, integral_mm_s)
-        patch = contact_patch(x, z, pose)
+        patch = contact_search(x, z, pose)
         free_rate = s.free_offset_rad / free_swing_s
         if patch.length_mm == 0:
             rate = free_rate
