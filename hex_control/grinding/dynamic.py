@@ -42,7 +42,7 @@ import numpy as np
 
 from hex_control.grinding.contact import DiskPose, clip_below, contact_patch
 from hex_control.grinding.contour import Contour
-from hex_control.grinding.model import WATT, GrindingProcess
+from hex_control.grinding.model import GrindingProcess
 
 
 @dataclass(frozen=True)
@@ -206,6 +206,76 @@ HISTORY = ("time_s", "centre_x_mm", "tip_x_mm", "tip_z_mm", "height_mm", "angle_
            "force_n", "power_w", "removal_rate_mm3_s", "patch_area_mm2", "patches", "error_mm")
 
 
+class PassStepper:
+    """One pass being ground, one RK4 step at a time: the disk state (angle, the drive's
+    error integral), the time, and the contour as cut so far. ``simulate_pass`` runs it to
+    the end of the bead; a plant advances it by its own periods, changing the drive's
+    inputs between steps."""
+
+    def __init__(self, contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float,
+                 step_mm: float, truncate_in_stages: bool = False, contact_search=contact_patch):
+        if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
+            raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
+        self.model, self.drive, self.feed_mm_s, self.step_mm = model, drive, feed_mm_s, step_mm
+        self.truncate_in_stages, self.contact_search = truncate_in_stages, contact_search
+        self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
+        self.dt = step_mm / feed_mm_s
+        self.free_swing_s = max(model.free_swing_s, self.dt)
+        self.time_s, self.angle_rad, self.integral_mm_s = 0.0, drive.initial_angle_rad, 0.0
+        self.start_centre_x_mm = start_tip_x_mm + model.radius_mm * math.cos(self.angle_rad)
+
+    @property
+    def contour(self) -> Contour:
+        return Contour(self.x, self.z, self.parent)
+
+    def _pose(self, time_s, angle_rad, integral_mm_s):
+        centre = self.start_centre_x_mm + self.feed_mm_s * time_s
+        s = self.drive.state(centre, self.feed_mm_s, angle_rad, integral_mm_s)
+        return s, DiskPose(centre, s.height_mm, angle_rad, self.model.radius_mm)
+
+    def _rates(self, time_s, angle_rad, integral_mm_s):
+        s, pose = self._pose(time_s, angle_rad, integral_mm_s)
+        patch = self.contact_search(self.x, self.z, pose)
+        free_rate = s.free_offset_rad / self.free_swing_s
+        if patch.length_mm == 0:
+            rate = free_rate
+        else:
+            q = self.model.removal_rate_mm3_s(s.force_n)
+            cos = math.cos(angle_rad)
+            rate = (q / (patch.length_mm * self.model.process.bead_width_mm) - self.feed_mm_s * math.sin(angle_rad)
+                    + s.height_rate_mm_s * cos) / (patch.centroid_mm - s.height_rate_per_angle_rate_mm * cos)  # 6.15
+            rate = min(rate, free_rate)
+        if self.truncate_in_stages:
+            self._truncate([pose.tip_x_mm, pose.centre_x_mm], [pose.tip_z_mm, pose.centre_z_mm])
+        return rate, s, pose, patch
+
+    def _truncate(self, cutter_x, cutter_z):
+        self.x, self.z, (self.parent,) = clip_below(self.x, self.z, np.array(cutter_x), np.array(cutter_z),
+                                                    (self.parent,))
+
+    def evaluate(self):
+        """(dtheta/dt, DriveState, DiskPose, ContactPatch) now."""
+        return self._rates(self.time_s, self.angle_rad, self.integral_mm_s)
+
+    def step(self, now=None) -> None:
+        """One RK4 step of ``dt``, then the truncation; ``now`` is ``evaluate()``'s result if
+        the caller has it already."""
+        dt, t, angle, integral = self.dt, self.time_s, self.angle_rad, self.integral_mm_s
+        k1, s1, pose, _ = now or self.evaluate()
+        k2, s2, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k1, integral + dt / 2 * s1.error_mm)
+        k3, s3, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k2, integral + dt / 2 * s2.error_mm)
+        k4, s4, _, _ = self._rates(t + dt, angle + dt * k3, integral + dt * s3.error_mm)
+        self.angle_rad = angle + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        self.integral_mm_s = integral + dt / 6 * (s1.error_mm + 2 * s2.error_mm + 2 * s3.error_mm + s4.error_mm)
+        self.time_s = t + dt
+        if not 0 < self.angle_rad < math.pi / 2:
+            raise FloatingPointError(f"integration diverged at tip x {pose.tip_x_mm:.1f} mm (disk angle "
+                                     f"{self.angle_rad:.3g} rad); use a smaller step_mm than {self.step_mm}")
+        # between steps: the swept tip path and the face now; all above them is gone
+        _, new = self._pose(self.time_s, self.angle_rad, self.integral_mm_s)
+        self._truncate([pose.tip_x_mm, new.tip_x_mm, new.centre_x_mm], [pose.tip_z_mm, new.tip_z_mm, new.centre_z_mm])
+
+
 def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float | None = None,
                   end_tip_x_mm: float | None = None, step_mm: float = 0.05,
                   truncate_in_stages: bool = False, contact_search=contact_patch) -> PassSimulation:
@@ -213,64 +283,22 @@ def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, s
     reaches ``end_tip_x_mm`` (the contour's ends by default), by RK4 at ``step_mm`` of feed
     per step, truncating between steps. ``contact_search`` finds the patch (the benchmark
     swaps in the naive whole-contour scan)."""
-    if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
-        raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
-    r, width = model.radius_mm, model.process.bead_width_mm
     start = contour.x_mm[0] if start_tip_x_mm is None else start_tip_x_mm
     end = contour.x_mm[-1] if end_tip_x_mm is None else end_tip_x_mm
-    x, z, (parent,) = contour.x_mm, contour.z_mm, (contour.parent_mm,)
-    dt = step_mm / feed_mm_s
-    free_swing_s = max(model.free_swing_s, dt)
-    angle, integral = drive.initial_angle_rad, 0.0
-    centre0 = start + r * math.cos(angle)
+    stepper = PassStepper(contour, model, drive, feed_mm_s, start, step_mm, truncate_in_stages, contact_search)
     rows = {name: [] for name in HISTORY}
     multiple = 0
-
-    def drive_pose(time_s, angle_rad, integral_mm_s):
-        centre = centre0 + feed_mm_s * time_s
-        s = drive.state(centre, feed_mm_s, angle_rad, integral_mm_s)
-        return s, DiskPose(centre, s.height_mm, angle_rad, r)
-
-    def rates(time_s, angle_rad, integral_mm_s):
-        nonlocal x, z, parent
-        s, pose = drive_pose(time_s, angle_rad, integral_mm_s)
-        patch = contact_search(x, z, pose)
-        free_rate = s.free_offset_rad / free_swing_s
-        if patch.length_mm == 0:
-            rate = free_rate
-        else:
-            q = model.removal_rate_mm3_s(s.force_n)
-            cos = math.cos(angle_rad)
-            rate = (q / (patch.length_mm * width) - feed_mm_s * math.sin(angle_rad) + s.height_rate_mm_s * cos) \
-                / (patch.centroid_mm - s.height_rate_per_angle_rate_mm * cos)  # eq. 6.15
-            rate = min(rate, free_rate)
-        if truncate_in_stages:
-            x, z, (parent,) = clip_below(x, z, np.array([pose.tip_x_mm, pose.centre_x_mm]),
-                                         np.array([pose.tip_z_mm, pose.centre_z_mm]), (parent,))
-        return rate, s, pose, patch
-
-    time = 0.0
     while True:
-        k1, s1, pose, patch = rates(time, angle, integral)
-        _record(rows, model, time, pose, s1, patch)
+        now = stepper.evaluate()
+        _, s, pose, patch = now
+        _record(rows, model, stepper.time_s, pose, s, patch)
         multiple += patch.patches > 1
         if pose.tip_x_mm >= end:
             break
-        k2, s2, _, _ = rates(time + dt / 2, angle + dt / 2 * k1, integral + dt / 2 * s1.error_mm)
-        k3, s3, _, _ = rates(time + dt / 2, angle + dt / 2 * k2, integral + dt / 2 * s2.error_mm)
-        k4, s4, _, _ = rates(time + dt, angle + dt * k3, integral + dt * s3.error_mm)
-        angle += dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        integral += dt / 6 * (s1.error_mm + 2 * s2.error_mm + 2 * s3.error_mm + s4.error_mm)
-        time += dt
-        if not 0 < angle < math.pi / 2:
-            raise FloatingPointError(f"integration diverged at tip x {pose.tip_x_mm:.1f} mm (disk angle "
-                                     f"{angle:.3g} rad); use a smaller step_mm than {step_mm}")
-        # between steps: the swept tip path and the face now; all above them is gone
-        _, new = drive_pose(time, angle, integral)
-        x, z, (parent,) = clip_below(x, z, np.array([pose.tip_x_mm, new.tip_x_mm, new.centre_x_mm]),
-                                     np.array([pose.tip_z_mm, new.tip_z_mm, new.centre_z_mm]), (parent,))
-    final = Contour(x, z, parent)
-    removed = width * (np.trapezoid(contour.z_mm, contour.x_mm) - np.trapezoid(z, x))
+        stepper.step(now)
+    final = stepper.contour
+    removed = model.process.bead_width_mm * (np.trapezoid(contour.z_mm, contour.x_mm)
+                                             - np.trapezoid(final.z_mm, final.x_mm))
     history = {name: np.asarray(values, float) for name, values in rows.items()}
     return PassSimulation(history, final, float(removed), int(multiple))
 
