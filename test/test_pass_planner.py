@@ -105,6 +105,17 @@ def test_plan_then_execute_removes_the_volume_and_k1_errors_grow_to_the_thesis_o
     assert -0.25 < errors[1.2] < -0.10
 
 
+def test_plan_on_a_curved_parent_surface_keeps_the_final_contour_parallel_to_it():
+    bead = weld_bead(length_mm=80.0, height_mm=3.0, ripple_mm=0.15, parent_curvature_per_mm=2e-3, seed=5)
+    plan = plan_pass(bead, MODEL, 0.5, 15.0)
+    assert plan.simulation.removed_mm3 == pytest.approx(plan.target.removed_mm3, rel=0.01)
+    grid = np.linspace(0.0, 80.0, 1601)
+    assert np.max(np.abs(plan.simulation.final.height_at(grid) - plan.target.contour.height_at(grid))) < 0.03
+    middle = (grid > 20) & (grid < 60)
+    above_parent = plan.simulation.final.height_at(grid) - np.interp(grid, bead.x_mm, bead.parent_mm)
+    assert np.ptp(above_parent[middle]) < 0.03  # a flat top over the curved parent, 1.6 mm of sag
+
+
 def test_relaxed_angle_variant_is_as_good_as_height_control(plan):
     variant = plan_pass(BEAD, MODEL, 0.4, 10.0, control="relaxed_angle")
     assert variant.simulation.removed_mm3 == pytest.approx(plan.target.removed_mm3, rel=0.01)
