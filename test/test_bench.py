@@ -50,3 +50,9 @@ def test_pass_benchmark_prints_steps_per_second_and_ratio(capsys):
     out = capsys.readouterr().out
     assert re.search(r"150 mm pass .*: [\d.]+ s \(target < 0.5 s\), \d+ steps/s", out)
     assert float(re.search(r"ratio ([\d.]+)x", out).group(1)) > 0
+
+
+def test_pru3_dynamics_benchmark_prints_rate_and_ratio(capsys):
+    assert run_benchmarks(["pru3_dynamics"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"vectorized\s+[\d,]+ evaluations/s", out) and re.search(r"ratio: \d+x", out)

@@ -98,3 +98,24 @@ def fk_speed(quick: bool) -> list[str]:
             f"max pose error {error[:, :3].max():.1e} mm / {error[:, 3:].max():.1e} rad",
             f"one solve at a time : {len(few) / loop:10,.0f} solves/s   (baseline)",
             f"ratio: {(len(poses) / batch_time) / (len(few) / loop):.0f}x"]
+
+
+@benchmark("pru3_dynamics")
+def pru3_dynamics_speed(quick: bool) -> list[str]:
+    from hex_control.kinematics.pru3 import Pru3Geometry
+    from hex_control.kinematics.pru3_dynamics import Pru3Inertia, inverse_dynamics
+
+    geometry, inertia = Pru3Geometry(), Pru3Inertia()
+    omega = 4 * np.pi
+    t = np.linspace(0.0, 1.0, 1000 if quick else 5000)
+    c, s = np.cos(omega * t), np.sin(omega * t)
+    q = np.stack([np.full_like(t, 220.0), 0.15 * c, 0.15 * s], -1)
+    q_dot = np.stack([0 * t, -0.15 * omega * s, 0.15 * omega * c], -1)
+    q_ddot = np.stack([0 * t, -0.15 * omega**2 * c, -0.15 * omega**2 * s], -1)
+    batch = best_time(lambda: inverse_dynamics(geometry, inertia, q, q_dot, q_ddot), repeat=3)
+    few = 100
+    loop = best_time(lambda: [inverse_dynamics(geometry, inertia, q[k], q_dot[k], q_ddot[k]) for k in range(few)],
+                     repeat=1)
+    return [f"seed 4.2 trajectory, {len(t)} samples: vectorized {len(t) / batch:10,.0f} evaluations/s",
+            f"one sample at a time : {few / loop:10,.0f} evaluations/s   (baseline)",
+            f"ratio: {(len(t) / batch) / (few / loop):.0f}x"]
