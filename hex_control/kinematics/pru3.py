@@ -143,11 +143,12 @@ def inverse_kinematics(geometry: Pru3Geometry, q) -> Pru3Pose:
     return Pru3Pose(full, joints, horizontal, np.where(under > 0, lengths, np.nan), reachable)
 
 
-def velocity_jacobian(geometry: Pru3Geometry, q) -> np.ndarray:
+def velocity_jacobian(geometry: Pru3Geometry, q, pose: Pru3Pose | None = None) -> np.ndarray:
     """J_p (N, 3, 3) with dL/dt = J_p dq/dt (seed 2.1.1), parasitic motion included:
     dL_i = [S_ix/w_i, S_iy/w_i, 1] . dP_i, w_i = sqrt(l^2 - S_ix^2 - S_iy^2), and the
-    constraints give d(x, y, gamma) = -C_d^-1 C_q dq (implicit function theorem)."""
-    pose = inverse_kinematics(geometry, q)
+    constraints give d(x, y, gamma) = -C_d^-1 C_q dq (implicit function theorem).
+    ``pose``: inverse_kinematics(geometry, q) if the caller has it."""
+    pose = inverse_kinematics(geometry, q) if pose is None else pose
     joint_jac = _joint_jacobians(geometry, pose.full)
     w = np.sqrt(geometry.rocker_length_mm**2 - np.sum(pose.horizontal_mm**2, axis=-1))
     row = np.concatenate([pose.horizontal_mm / w[..., None], np.ones(w.shape + (1,))], axis=-1)

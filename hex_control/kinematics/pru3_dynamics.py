@@ -17,8 +17,9 @@ sliders' weight out (m_s L'' only); the rails are vertical, so it belongs in and
 The twists' Jacobians are analytic (parasitic motion by the implicit-function theorem);
 their time derivatives along q' are central differences over ``time_step_s``.
 
-Forward dynamics (2.2.2): tau = A(q) q'' + b(q, q') in actuator space (A from unit
-accelerations, b at zero acceleration), so q'' = A^-1 (tau - b), integrated in time.
+The same balance written J^T tau = M(q) q'' + h(q, q') (``generalized_dynamics``) gives
+the forward dynamics of 2.2.2, q'' = M^-1 (J^T tau - h), integrated in time, and the
+actuator-space form tau = A q'' + b (A = J^-T M, b = J^-T h) the controllers use.
 
 Units: mm, kg, s, rad; forces are returned in N (1 N = 1000 kg mm/s^2).
 """
@@ -81,7 +82,7 @@ def body_jacobians(geometry: Pru3Geometry, q) -> BodyJacobians:
     rotation = rotation_matrix(full[:, 3], full[:, 4], full[:, 5])
     spin = np.stack([_vee(d @ np.swapaxes(rotation, -1, -2))
                      for d in rotation_derivatives(full[:, 3], full[:, 4], full[:, 5])], axis=-1)  # (N, 3, 3)
-    sliders = velocity_jacobian(geometry, q)
+    sliders = velocity_jacobian(geometry, q, pose)
     joint_q = np.einsum("nkiu,nuq->nkiq", joint_jac, g)  # dP_i/dq
     slider_q = np.zeros_like(joint_q)
     slider_q[:, :, 2, :] = sliders  # S_i = (rail_i, L_i): only z moves
@@ -96,70 +97,80 @@ def body_jacobians(geometry: Pru3Geometry, q) -> BodyJacobians:
                          n[..., None] * rate[:, :, None, :], sliders)
 
 
-def _motion(geometry, q, q_dot, q_ddot, time_step_s):
-    """Jacobians at q, and every body's velocity J q' and acceleration J q'' + J' q' (J' q'
-    by central differences of J along the motion, q -/+ time_step_s q')."""
+def generalized_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, external_force_n=None,
+                         external_moment_n_mm=None, time_step_s: float = 1e-6):
+    """The virtual-work balance J^T tau = M(q) q'' + h(q, q') in the platform coordinates:
+    M (N, 3, 3) in kg (mm, rad units), h (N, 3) in kg mm/s^2 per coordinate, and J = dL/dq.
+
+    Each body's D'Alembert wrench [f_applied - m a ; n_applied - I Omega - omega x I omega]
+    is projected on its Jacobian; with a = J_b q'' + J_b' q' the q''-part gives M and the
+    rest (J_b' q' by central differences along the motion, gravity, the external wrench)
+    gives h. The sliders add m_s J^T (L'' + g)."""
+    q, q_dot = _as_q(q), _as_q(q_dot)
     n = len(q)
     stacked = body_jacobians(geometry, np.concatenate([q, q + time_step_s * q_dot, q - time_step_s * q_dot]))
-    now = BodyJacobians(*(getattr(stacked, f.name)[:n] for f in fields(BodyJacobians)))
-    velocity, acceleration = {}, {}
-    for name in ("platform_v", "platform_w", "rocker_v", "rocker_w", "sliders"):
-        jacobian, ahead, behind = np.split(getattr(stacked, name), 3)
-        rate = (ahead - behind) / (2 * time_step_s)
-        velocity[name] = np.einsum("n...q,nq->n...", jacobian, q_dot)
-        acceleration[name] = np.einsum("n...q,nq->n...", jacobian, q_ddot) + np.einsum("n...q,nq->n...", rate, q_dot)
-    return now, velocity, acceleration
+    j = BodyJacobians(*(getattr(stacked, f.name)[:n] for f in fields(BodyJacobians)))
+
+    def bias(name):  # J_b' q'
+        _, ahead, behind = np.split(getattr(stacked, name), 3)
+        return np.einsum("n...q,nq->n...", (ahead - behind) / (2 * time_step_s), q_dot)
+
+    gravity = np.array([0.0, 0.0, inertia.gravity_mm_s2])  # the reversed weight per kg: +z
+    transpose = lambda a: np.swapaxes(a, -1, -2)  # noqa: E731
+
+    # platform (centre of mass at its origin), with the external wrench
+    mass, rotation = inertia.platform_mass_kg, j.rotation
+    spatial = rotation @ np.diag(inertia.platform_inertia_kg_mm2) @ transpose(rotation)
+    omega = np.einsum("niq,nq->ni", j.platform_w, q_dot)
+    m_gen = mass * transpose(j.platform_v) @ j.platform_v + transpose(j.platform_w) @ spatial @ j.platform_w
+    force = mass * (bias("platform_v") + gravity)
+    moment = np.einsum("nij,nj->ni", spatial, bias("platform_w")) \
+        + np.cross(omega, np.einsum("nij,nj->ni", spatial, omega))
+    if external_force_n is not None:
+        force = force - np.asarray(external_force_n, float) * KG_MM_S2_PER_N
+    if external_moment_n_mm is not None:
+        moment = moment - np.asarray(external_moment_n_mm, float) * KG_MM_S2_PER_N
+    h = np.einsum("niq,ni->nq", j.platform_v, force) + np.einsum("niq,ni->nq", j.platform_w, moment)
+
+    # rockers (centre of mass at the midpoint, inertia in the rocker frame)
+    spatial = j.rocker_axes @ np.diag(inertia.rocker_inertia_kg_mm2) @ transpose(j.rocker_axes)
+    omega = np.einsum("nkiq,nq->nki", j.rocker_w, q_dot)
+    m_gen = m_gen + inertia.rocker_mass_kg * np.einsum("nkiq,nkip->nqp", j.rocker_v, j.rocker_v) \
+        + np.einsum("nkiq,nkij,nkjp->nqp", j.rocker_w, spatial, j.rocker_w)
+    force = inertia.rocker_mass_kg * (bias("rocker_v") + gravity)
+    moment = np.einsum("nkij,nkj->nki", spatial, bias("rocker_w")) \
+        + np.cross(omega, np.einsum("nkij,nkj->nki", spatial, omega))
+    h = h + np.einsum("nkiq,nki->nq", j.rocker_v, force) + np.einsum("nkiq,nki->nq", j.rocker_w, moment)
+
+    # sliders along the vertical rails
+    m_gen = m_gen + inertia.slider_mass_kg * transpose(j.sliders) @ j.sliders
+    h = h + inertia.slider_mass_kg * np.einsum("niq,ni->nq", j.sliders, bias("sliders") + inertia.gravity_mm_s2)
+    return m_gen, h, j.sliders
 
 
 def inverse_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, q_ddot, external_force_n=None,
                      external_moment_n_mm=None, time_step_s: float = 1e-6) -> np.ndarray:
     """Slider forces tau (N, 3) in N for the motion (q, q', q''), rows of (z mm, alpha rad,
     beta rad) and their rates; the external wrench on the platform (N, N mm, world frame)
-    acts at the platform origin."""
-    q, q_dot, q_ddot = _as_q(q), _as_q(q_dot), _as_q(q_ddot)
-    j, v, a = _motion(geometry, q, q_dot, q_ddot, time_step_s)
-    gravity = np.array([0.0, 0.0, -inertia.gravity_mm_s2])
-    external_f = np.zeros(3) if external_force_n is None else np.asarray(external_force_n, float) * KG_MM_S2_PER_N
-    external_n = np.zeros(3) if external_moment_n_mm is None \
-        else np.asarray(external_moment_n_mm, float) * KG_MM_S2_PER_N
-
-    # platform: D'Alembert wrench at its centre of mass
-    mass = inertia.platform_mass_kg
-    world_inertia = j.rotation @ np.diag(inertia.platform_inertia_kg_mm2) @ np.swapaxes(j.rotation, -1, -2)
-    omega = v["platform_w"]
-    force = external_f + mass * gravity - mass * a["platform_v"]
-    moment = external_n - np.einsum("nij,nj->ni", world_inertia, a["platform_w"]) \
-        - np.cross(omega, np.einsum("nij,nj->ni", world_inertia, omega))
-    generalized = np.einsum("niq,ni->nq", j.platform_v, force) + np.einsum("niq,ni->nq", j.platform_w, moment)
-
-    # rockers
-    rocker_inertia = j.rocker_axes @ np.diag(inertia.rocker_inertia_kg_mm2) @ np.swapaxes(j.rocker_axes, -1, -2)
-    omega = v["rocker_w"]
-    force = inertia.rocker_mass_kg * (gravity - a["rocker_v"])
-    moment = -np.einsum("nkij,nkj->nki", rocker_inertia, a["rocker_w"]) \
-        - np.cross(omega, np.einsum("nkij,nkj->nki", rocker_inertia, omega))
-    generalized += np.einsum("nkiq,nki->nq", j.rocker_v, force) + np.einsum("nkiq,nki->nq", j.rocker_w, moment)
-
-    # dL^T (tau - m_s (L'' + g)) + dq^T Q = 0 with dL = J dq
-    tau = np.linalg.solve(np.swapaxes(j.sliders, -1, -2), -generalized[..., None])[..., 0]
-    tau += inertia.slider_mass_kg * (a["sliders"] + inertia.gravity_mm_s2)
-    return tau / KG_MM_S2_PER_N
+    acts at the platform origin. tau = J^-T (M q'' + h)."""
+    m_gen, h, jac = generalized_dynamics(geometry, inertia, q, q_dot, external_force_n, external_moment_n_mm,
+                                         time_step_s)
+    load = np.einsum("nij,nj->ni", m_gen, _as_q(q_ddot)) + h
+    return np.linalg.solve(np.swapaxes(jac, -1, -2), load[..., None])[..., 0] / KG_MM_S2_PER_N
 
 
 def actuator_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot):
-    """tau = A(q) q'' + b(q, q'): A (N, 3, 3) in N s^2 per (mm, rad), b (N, 3) in N."""
-    q, q_dot = _as_q(q), _as_q(q_dot)
-    n = len(q)
-    accelerations = np.concatenate([np.zeros_like(q)] + [np.broadcast_to(unit, q.shape) for unit in np.eye(3)])
-    tau = inverse_dynamics(geometry, inertia, np.tile(q, (4, 1)), np.tile(q_dot, (4, 1)), accelerations)
-    b = tau[:n]
-    return np.stack([tau[(k + 1) * n:(k + 2) * n] - b for k in range(3)], axis=-1), b
+    """tau = A(q) q'' + b(q, q'): A = J^-T M (N, 3, 3) in N s^2 per (mm, rad), b = J^-T h (N)."""
+    m_gen, h, jac = generalized_dynamics(geometry, inertia, q, q_dot)
+    jt = np.swapaxes(jac, -1, -2)
+    return np.linalg.solve(jt, m_gen) / KG_MM_S2_PER_N, np.linalg.solve(jt, h[..., None])[..., 0] / KG_MM_S2_PER_N
 
 
 def forward_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, tau_n) -> np.ndarray:
-    """q'' = A^-1 (tau - b) (seed 2.2.2) for one configuration or a batch."""
-    a, b = actuator_dynamics(geometry, inertia, q, q_dot)
-    return np.linalg.solve(a, (np.atleast_2d(tau_n) - b)[..., None])[..., 0]
+    """q'' = M^-1 (J^T tau - h) (seed 2.2.2) for one configuration or a batch."""
+    m_gen, h, jac = generalized_dynamics(geometry, inertia, q, q_dot)
+    drive = np.einsum("nji,nj->ni", jac, np.atleast_2d(tau_n) * KG_MM_S2_PER_N)
+    return np.linalg.solve(m_gen, (drive - h)[..., None])[..., 0]
 
 
 def simulate(geometry: Pru3Geometry, inertia: Pru3Inertia, q0, q_dot0, torque, duration_s: float,

@@ -11,14 +11,13 @@ import numpy as np
 
 def _axis_matrices(angle, axis: int):
     c, s = np.cos(angle), np.sin(angle)
-    one, zero = np.ones_like(c), np.zeros_like(c)
-    if axis == 0:
-        rows = ((one, zero, zero), (zero, c, -s), (zero, s, c))
-    elif axis == 1:
-        rows = ((c, zero, s), (zero, one, zero), (-s, zero, c))
-    else:
-        rows = ((c, -s, zero), (s, c, zero), (zero, zero, one))
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+    out = np.zeros(np.shape(c) + (3, 3))
+    i, j = [k for k in range(3) if k != axis]
+    out[..., axis, axis] = 1.0
+    out[..., i, i] = out[..., j, j] = c
+    # about y the sine's sign is the other way round (z x x = y)
+    out[..., i, j], out[..., j, i] = (s, -s) if axis == 1 else (-s, s)
+    return out
 
 
 def _axis_derivatives(angle, axis: int):
