@@ -99,11 +99,16 @@ class DriveState:
 
 
 class _TipTracking:
-    """The desired tip trajectory z_tip(x), a polyline (mm), and its slope."""
+    """A PI drive on the tip error: the desired tip trajectory z_tip(x), a polyline (mm),
+    and its slope; gains G1, G2. The disk starts at its relaxed angle with the tip on the
+    trajectory, the centre at height H0."""
 
-    def __init__(self, tip_x_mm, tip_z_mm):
+    def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float, g1: float, g2: float):
         self.tip_x, self.tip_z = np.asarray(tip_x_mm, float), np.asarray(tip_z_mm, float)
         self.slope = np.diff(self.tip_z) / np.diff(self.tip_x)
+        self.model, self.g1, self.g2 = model, g1, g2
+        self.initial_angle_rad = model.relaxed_angle_rad
+        self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
 
     def desired(self, x_mm: float) -> tuple[float, float]:
         i = int(np.searchsorted(self.tip_x, x_mm)) - 1
@@ -118,10 +123,7 @@ class HeightControl(_TipTracking):
 
     def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
                  proportional: float = 20.0, integral_per_s: float = 200.0):
-        super().__init__(tip_x_mm, tip_z_mm)
-        self.model, self.g1, self.g2 = model, proportional, integral_per_s
-        self.initial_angle_rad = model.relaxed_angle_rad
-        self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
+        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional, integral_per_s)
 
     def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
         r, g1 = self.model.radius_mm, self.g1
@@ -141,10 +143,7 @@ class RelaxedAngleControl(_TipTracking):
 
     def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
                  proportional_rad_mm: float = 0.05, integral_rad_mm_s: float = 5.0):
-        super().__init__(tip_x_mm, tip_z_mm)
-        self.model, self.g1, self.g2 = model, proportional_rad_mm, integral_rad_mm_s
-        self.initial_angle_rad = model.relaxed_angle_rad
-        self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
+        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional_rad_mm, integral_rad_mm_s)
 
     def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
         r = self.model.radius_mm
