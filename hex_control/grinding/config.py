@@ -4,7 +4,7 @@ the pass planner's process, spring, controller, compliance and bead frame."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import yaml
@@ -15,7 +15,7 @@ from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.pass_plan import CONTROLS, Compliance
 from hex_control.grinding.sdp import Charges, PlannerGrid, charges_from_dict
 from hex_control.grinding.stochastic import CutDepthModel
-from hex_control.grinding.tool_path import BeadFrame
+from hex_control.grinding.tool_path import BeadFrame, PathTiming
 
 
 def parse_planner_config(data: dict) -> tuple[GrindingProcess, Charges, PlannerGrid, CutDepthModel]:
@@ -45,7 +45,7 @@ class PassPlannerConfig:
     step_mm: float
     compliance: Compliance
     frame: BeadFrame
-    path: dict
+    path: PathTiming
 
 
 def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
@@ -64,12 +64,14 @@ def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
     compliance = Compliance(table["deflection_rad"], table["torque_n_mm"]) if table \
         else Compliance.linear(model.spring_n_mm_rad)
     gains = data.get("gains")
-    path = {"sample_period_s": 0.005, "approach_s": 1.0, "retract_mm": 20.0, "reset_s": 2.0, **(data.get("path") or {})}
-    if set(path) != {"sample_period_s", "approach_s", "retract_mm", "reset_s"}:
-        raise ValueError(f"unknown path fields {sorted(set(path) - {'sample_period_s', 'approach_s', 'retract_mm', 'reset_s'})}")
+    path = data.get("path") or {}
+    unknown = set(path) - {f.name for f in fields(PathTiming)}
+    if unknown:
+        raise ValueError(f"unknown path fields {sorted(unknown)}")
     return PassPlannerConfig(model, planner, control, tuple(map(float, gains)) if gains else None,
                              float(data.get("step_mm", 0.1)), compliance,
-                             BeadFrame(**{k: tuple(v) for k, v in (data.get("bead_frame") or {}).items()}), path)
+                             BeadFrame(**{k: tuple(v) for k, v in (data.get("bead_frame") or {}).items()}),
+                             PathTiming(**path))
 
 
 def load_pass_planner_config(source) -> PassPlannerConfig:

@@ -58,16 +58,30 @@ def _blend(n: int) -> np.ndarray:
     return (1 - np.cos(np.linspace(0.0, math.pi, n))) / 2
 
 
-def pass_tool_path(frame: BeadFrame, grind_time_s, centre_x_mm, height_mm, sample_period_s: float = 0.005,
-                   approach_s: float = 1.0, retract_mm: float = 20.0, reset_s: float = 2.0) -> ToolPath:
+@dataclass(frozen=True)
+class PathTiming:
+    """How the path around a grinding phase is timed and sampled (s, mm)."""
+
+    sample_period_s: float = 0.005
+    approach_s: float = 1.0
+    retract_mm: float = 20.0
+    reset_s: float = 2.0
+
+    def __post_init__(self):
+        if not (self.sample_period_s > 0 and self.approach_s > 0 and self.reset_s > 0 and self.retract_mm >= 0):
+            raise ValueError("need positive sample period, approach and reset times, and retract_mm >= 0")
+
+
+def pass_tool_path(frame: BeadFrame, grind_time_s, centre_x_mm, height_mm,
+                   timing: PathTiming = PathTiming()) -> ToolPath:
     """Rest ``retract_mm`` above the grinding start, descend in ``approach_s``, follow the
     planned (x, H) of the grinding phase, rise ``retract_mm`` in ``approach_s``, move back
     above the start in ``reset_s``; sampled every ``sample_period_s``."""
     t, x, h = (np.asarray(a, float) for a in (grind_time_s, centre_x_mm, height_mm))
     if not (t.ndim == 1 and t.size >= 2 and t.shape == x.shape == h.shape and np.all(np.diff(t) > 0)):
         raise ValueError("grinding phase: need increasing times with x and H of the same length")
-    if not (sample_period_s > 0 and approach_s > 0 and reset_s > 0 and retract_mm >= 0):
-        raise ValueError("need positive sample period, approach and reset times, and retract_mm >= 0")
+    sample_period_s, approach_s, retract_mm, reset_s = (timing.sample_period_s, timing.approach_s,
+                                                        timing.retract_mm, timing.reset_s)
 
     def samples(duration):
         return max(2, int(round(duration / sample_period_s)) + 1)

@@ -80,7 +80,7 @@ class PassPlannerNode(Node):
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
         self.create_timer(0.02, self._poll)
-        self.create_timer(self.config.path["sample_period_s"], self._stream)
+        self.create_timer(self.config.path.sample_period_s, self._stream)
 
     # -- inputs --------------------------------------------------------------------------
     def _on_contour(self, msg: ContourMsg) -> None:
@@ -127,7 +127,7 @@ class PassPlannerNode(Node):
                 model.process, bead_width_mm=contour_msg.bead_width_mm))
         plan = plan_forces(contour, model, command.cut_depth_mm, command.feed_speed_mm_s, config.planner,
                            config.control, config.gains, config.step_mm, config.compliance)
-        path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, **config.path)
+        path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, config.path)
         return plan, path, model.process.bead_width_mm
 
     def _poll(self) -> None:
