@@ -10,11 +10,22 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hexctl", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
 
-    demo = commands.add_parser("demo", help="run the main job (for now: the load-predictor demo)")
-    demo.add_argument("--output", default="output/load_predictor", help="report directory")
-    demo.add_argument("--samples", type=int, default=2000, help="load samples to publish")
-    demo.add_argument("--rate", type=float, default=200.0, help="sample rate (Hz)")
-    demo.add_argument("--seed", type=int, default=7)
+    demo = commands.add_parser("demo", help="the main job: the whole hierarchy grinds a weld bead on the plant")
+    demo.add_argument("--output", default="output/demo", help="report directory")
+    demo.add_argument("--deadline", type=float, default=100.0, help="the job's deadline (s)")
+    demo.add_argument("--seed", type=int, default=0, help="process-variation seed of the (first) job")
+    demo.add_argument("--jobs", type=int, default=1, help="seeded jobs to run one after the other (statistics)")
+    demo.add_argument("--realtime", action="store_true", help="plant in real time (watch it live) instead of lock-step")
+    demo.add_argument("--real-time-factor", type=float, default=1.0, help="with --realtime: sim speed vs wall")
+    demo.add_argument("--bead-length", type=float, default=300.0, help="bead length (mm)")
+    demo.add_argument("--bead-height", type=float, default=1.0, help="bead height (mm)")
+    demo.add_argument("--dulling", type=float, default=0.0, help="K1 growth per pass (a disk that dulls)")
+
+    predictor = commands.add_parser("demo-load-predictor", help="the Kalman load predictor alone over ROS 2")
+    predictor.add_argument("--output", default="output/load_predictor", help="report directory")
+    predictor.add_argument("--samples", type=int, default=2000, help="load samples to publish")
+    predictor.add_argument("--rate", type=float, default=200.0, help="sample rate (Hz)")
+    predictor.add_argument("--seed", type=int, default=7)
 
     workspace = commands.add_parser("workspace", help="workspace maps, slices and roll sweep (PNG, JSON)")
     workspace.add_argument("--machine", default="machines/nist_ingersoll.yaml",
@@ -277,6 +288,12 @@ def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     try:
         if args.command == "demo":
+            from hex_control.nodes.grind_job import run_demo
+
+            return run_demo(args.output, args.deadline, args.seed, args.jobs,
+                            "realtime" if args.realtime else "lockstep", args.real_time_factor,
+                            args.bead_length, args.bead_height, args.dulling)
+        if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 
             return run_demo(args.output, args.samples, args.rate, args.seed)

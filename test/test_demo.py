@@ -1,4 +1,4 @@
-"""The interim main job (`hexctl demo`): load predictor over ROS 2, shortened."""
+"""`hexctl demo-load-predictor`: the load predictor over ROS 2, shortened."""
 
 import json
 import math
@@ -14,7 +14,7 @@ from hex_control.estimation import GaussMarkovModel
 def test_demo_runs_and_reports(tmp_path, ros_env):
     """The interim main job, shortened: online identification, skill, PNG and JSON."""
     exe = Path(sys.executable).parent / "hexctl"
-    result = subprocess.run([str(exe), "demo", "--samples", "800", "--output", str(tmp_path)],
+    result = subprocess.run([str(exe), "demo-load-predictor", "--samples", "800", "--output", str(tmp_path)],
                             env=ros_env, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())

@@ -10,7 +10,7 @@ from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.grinding.contour import weld_bead
-from hex_control.nodes.pass_planner import contour_to_message
+from hex_control.nodes.interfaces import contour_to_message
 from hex_control_msgs.msg import ForceTrajectory, PassCommand
 from hex_control_msgs.msg import Contour as ContourMsg
 from ros_harness import wait_until

@@ -7,7 +7,8 @@ Topics:
     /grinding/contour          (Contour, latched)           in   the profile after pass k
     /grinding/force_trajectory (ForceTrajectory, latched)   out  for the force controller
     /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
-                                                                 on this node's clock
+                                                                 ``lookahead_s`` ahead of
+                                                                 this node's clock
     ~/status                   (DiagnosticStatus, latched)  out  OK + summary, or ERROR +
                                                                  the reason a command was refused
     /diagnostics
@@ -30,31 +31,16 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.time import Duration
 
 from hex_control.grinding.config import load_pass_planner_config
-from hex_control.grinding.contour import Contour
 from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.interfaces import LATCHED, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand
-
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
-
-def contour_from_message(msg: ContourMsg) -> Contour:
-    parent = list(msg.parent_mm) or None
-    return Contour(np.asarray(msg.x_mm, float), np.asarray(msg.z_mm, float),
-                   None if parent is None else np.asarray(parent, float))
-
-
-def contour_to_message(contour: Contour, job_id: str, pass_index: int, width_mm: float) -> ContourMsg:
-    return ContourMsg(job_id=job_id, pass_index=pass_index, bead_width_mm=float(width_mm),
-                      x_mm=contour.x_mm.tolist(), z_mm=contour.z_mm.tolist(), parent_mm=contour.parent_mm.tolist())
-
 
 class PassPlannerNode(Node):
     def __init__(self, **kwargs):
@@ -64,6 +50,9 @@ class PassPlannerNode(Node):
         self.declare_parameter("contour_wait_s", 5.0, read_only)
         self.declare_parameter("start_delay_s", 0.2, ParameterDescriptor(
             description="time from a finished plan to the start of its path (s, node clock)"))
+        self.declare_parameter("lookahead_s", 0.1, ParameterDescriptor(
+            description="path samples are sent this far ahead of their stamps (s), so that the "
+                        "plant applies them on time whatever the latency of the chain"))
         self.config = load_pass_planner_config(self.get_parameter("config").value)
         self.diagnostics = Diagnostics(self)
         self.contour: ContourMsg | None = None
@@ -163,6 +152,8 @@ class PassPlannerNode(Node):
         msg = ForceTrajectory(job_id=command.job_id, pass_index=command.pass_index,
                               feed_speed_mm_s=float(command.feed_speed_mm_s),
                               planned_cut_depth_mm=float(plan.planned_depth_mm),
+                              path_start_s=-float(path.grind_start_s),
+                              path_end_s=float(path.time_s[-1] - path.grind_start_s),
                               time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
                               normal_force_n=plan.force_n.tolist(),
                               planned_final_contour=contour_to_message(plan.final, command.job_id,
@@ -183,11 +174,11 @@ class PassPlannerNode(Node):
                                                  values=[KeyValue(key=k, value=str(v)) for k, v in pairs.items()]))
 
     def _stream(self) -> None:
-        """Publish the path's samples whose time has come, on this node's clock."""
+        """Publish the path's samples whose time (less the lookahead) has come."""
         if self.path is None:
             return
         start, path, index = self.path
-        elapsed = (self.get_clock().now() - start).nanoseconds / 1e9
+        elapsed = (self.get_clock().now() - start).nanoseconds / 1e9 + self.get_parameter("lookahead_s").value
         quaternion = path.quaternion_xyzw
         while index < path.time_s.size and path.time_s[index] <= elapsed:
             msg = PoseStamped()

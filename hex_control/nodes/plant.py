@@ -9,10 +9,23 @@ Modes (``mode``):
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
   with the latest command; a period whose measurement went unanswered is a missed cycle.
+- Either way, force commands older than ``command_timeout_s`` (sim time) retract the table
+  to ``table_start_mm`` (the amplifier's own watchdog: a dead controller cannot keep
+  pushing), and in lock-step the plant then runs on in real time until commands return.
 With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length). Timing
 counts from the first answered measurement; ``report_file`` also gets it as JSON every second.
 Command latency (measurement out to command in, wall time) and missed cycles are reported
 in ``/diagnostics``.
+
+With ``grinding`` true the plant also holds the workpiece (library
+:mod:`hex_control.plant.grinding_cell`): a bead (``bead_file`` CSV, or a generated one of
+``bead_length_mm`` x ``bead_height_mm``, seed ``bead_seed``), ground where forward kinematics
+of the struts puts the disk (``machine_file``, bead frame and nominal process from
+``pass_planner_config``), with per-pass variation of the process (``specific_energy_cv``,
+``friction_cv``, ``dulling_per_pass``, ``wear_mm_per_pass``, seed ``seed``), burn
+(``burn_coefficient`` C_B, 0 = off) and stall detection. Passes are announced by their
+force trajectories; after each (machine settled) the scanner publishes the contour and the
+pass result (:mod:`hex_control.plant.pass_monitor`).
 
 Topics:
     /clock                      rosgraph_msgs/Clock          out  sim time
@@ -22,17 +35,24 @@ Topics:
     /plant/strut_states         sensor_msgs/JointState       out  lengths (m), speeds (m/s)
     /plant/deflection           std_msgs/Float64             out  structural-mode deflection (mm)
     /plant/force_axis_command   std_msgs/Float64             in   table position command (mm)
-    /plant/strut_command        sensor_msgs/JointState       in   strut lengths (m)
+    /plant/strut_command        sensor_msgs/JointState       in   strut lengths (m), applied when
+                                                                  sim time reaches the stamp
+  with grinding:
+    /grinding/contour           hex_control_msgs/Contour     out  the scanned profile after k passes (latched)
+    /grinding/pass_result       hex_control_msgs/PassResult  out  one per pass (transient-local, depth 10)
+    /plant/tool_centre          geometry_msgs/PointStamped   out  disk centre in the bead frame (x, H mm in x, z)
+    /grinding/force_trajectory  hex_control_msgs/ForceTrajectory in  announces a pass and its timing
 """
 
 from __future__ import annotations
 
 import json
+from collections import deque
 import math
 import os
 import time
 
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PointStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
@@ -41,17 +61,34 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from hex_control.config import config_file
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.grinding.contour import Contour, weld_bead
+from hex_control.grinding.variation import ProcessVariation
+from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
+from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.machine import MachineParameters
+from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.simulator import PlantSimulator
+from hex_control.plant.tool_locator import ToolLocator
+from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import ForceTrajectory, PassResult
 
 TABLE_PARAMETERS = ("stiction_n", "runout_mm", "disk_frequency_hz", "disk_slowdown_hz_per_n", "sensor_noise_n",
                     "sensor_cutoff_hz", "contact_mm", "rotational_stiffness_n_mm_rad", "disk_radius_mm",
                     "position_loop")
 MACHINE_PARAMETERS = ("servo_frequency_hz", "servo_damping", "mode_frequency_hz", "mode_damping")
+VARIATION_PARAMETERS = ("specific_energy_cv", "friction_cv", "dulling_per_pass", "wear_mm_per_pass")
+CELL_PARAMETERS = (("grinding", False), ("machine_file", str(config_file("machines/nist_ingersoll.yaml"))),
+                   ("pass_planner_config", "pass_planner.yaml"), ("bead_file", ""), ("bead_length_mm", 300.0),
+                   ("bead_height_mm", 1.0), ("bead_end_ramp_mm", 12.0), ("bead_ripple_mm", 0.05), ("bead_seed", 0),
+                   ("burn_coefficient", 0.0), ("command_timeout_s", 0.1), ("settle_deflection_mm", 0.01),
+                   ("max_settle_s", 10.0), *((n, getattr(ProcessVariation(), n)) for n in VARIATION_PARAMETERS))
 
 
 class PlantNode(Node):
@@ -62,8 +99,7 @@ class PlantNode(Node):
         for name, default in (("mode", "lockstep"), ("control_period_s", 0.005), ("internal_step_s", 0.001),
                               ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
                               ("end_time_s", 0.0), ("report_file", ""),
-                              ("table_start_mm", -1.0), ("strut_names", ["strut_1", "strut_2", "strut_3",
-                                                                         "strut_4", "strut_5", "strut_6"]),
+                              ("table_start_mm", -1.0), ("strut_names", [""]), *CELL_PARAMETERS,
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
                               *((n, getattr(machine_defaults, n)) for n in MACHINE_PARAMETERS)):
             self.declare_parameter(name, default, read_only)
@@ -72,15 +108,26 @@ class PlantNode(Node):
         if self.mode not in ("lockstep", "realtime"):
             raise ValueError(f"mode must be lockstep or realtime, got {self.mode!r}")
         self.period_s = p("control_period_s")
-        self.strut_names = list(p("strut_names"))
+        machine_geometry, _ = load_machine(p("machine_file"))
+        struts = 3 if type(machine_geometry).__name__ == "Pru3Geometry" else 6
+        # the kinematics node's names for the same machine, unless told otherwise
+        self.strut_names = [n for n in p("strut_names") if n] or [f"strut_{i}" for i in range(struts)]
         table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
         machine = MachineParameters(struts=len(self.strut_names), participation=1.0 / len(self.strut_names),
                                     **{n: p(n) for n in MACHINE_PARAMETERS})
         steps = round(self.period_s / p("internal_step_s"))
         if steps < 1 or abs(steps * p("internal_step_s") - self.period_s) > 1e-9:
             raise ValueError("control_period_s must be a whole number of internal_step_s")
-        self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"))
+        cell, locator, self.monitor = None, None, None
+        if p("grinding"):
+            cell, locator = self._cell(machine_geometry)
+            self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
+                                       command_timeout_s=p("command_timeout_s"))
+        self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator)
         self.command_mm = p("table_start_mm")
+        self.last_command_s = 0.0  # sim time of the latest force command
+        self.free_running = False  # lock-step whose controller stopped answering
+        self.strut_queue = deque()  # (stamp s, lengths m) of commands stamped ahead of sim time
         self.timing = LoopTiming()
         self.started = False  # a first command has answered a measurement
         self.loop_start = self.loop_end = None
@@ -94,12 +141,46 @@ class PlantNode(Node):
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
         self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
         self.create_subscription(JointState, "/plant/strut_command", self._on_strut_command, 100)
+        if self.monitor is not None:
+            self.contour_publisher = self.create_publisher(ContourMsg, "/grinding/contour", LATCHED)
+            self.result_publisher = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
+            self.centre_publisher = self.create_publisher(PointStamped, "/plant/tool_centre", STREAM)
+            self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+            self.contour_publisher.publish(contour_to_message(cell.contour, "", 0, cell.width_mm))
         if self.mode == "realtime":
             self.create_timer(self.period_s / p("real_time_factor"), self._advance)
         else:
             self.create_timer(p("lockstep_timeout_s") / 4, self._lockstep_watchdog)
+            self.create_timer(self.period_s / p("real_time_factor"), self._free_run)
         self.create_timer(1.0, self._report)
         self._publish_state()
+
+    def _cell(self, machine_geometry) -> tuple[GrindingCell, ToolLocator]:
+        p = lambda name: self.get_parameter(name).value  # noqa: E731
+        config = load_pass_planner_config(p("pass_planner_config"))
+        if p("bead_file"):
+            bead = Contour.from_csv(p("bead_file"))
+        else:
+            bead = weld_bead(p("bead_length_mm"), p("bead_height_mm"), p("bead_end_ramp_mm"),
+                             ripple_mm=p("bead_ripple_mm"), seed=p("bead_seed"))
+        variation = ProcessVariation(**{n: p(n) for n in VARIATION_PARAMETERS})
+        table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
+        cell = GrindingCell(bead, config.model, variation, p("seed"), table.contact_mm, config.step_mm,
+                            self.period_s, p("burn_coefficient") or None)
+        return cell, ToolLocator(machine_geometry, config.frame)
+
+    def _on_trajectory(self, msg: ForceTrajectory) -> None:
+        grind_start = Time.from_msg(msg.header.stamp).nanoseconds / 1e9
+        try:
+            if not msg.time_from_start_s:
+                raise ValueError("empty trajectory")
+            scheduled = ScheduledPass(msg.job_id, msg.pass_index, grind_start + msg.path_start_s, grind_start,
+                                      grind_start + msg.time_from_start_s[-1], grind_start + msg.path_end_s)
+            if self.monitor.schedule(scheduled):
+                self.diagnostics.count("passes_announced")
+        except ValueError as error:
+            self.diagnostics.count("rejected_trajectory")
+            self.get_logger().warning(f"force trajectory rejected: {error}")
 
     # -- inputs ----------------------------------------------------------------------------
     def _on_force_command(self, msg: Float64) -> None:
@@ -107,6 +188,7 @@ class PlantNode(Node):
             self.diagnostics.count("rejected_force_command")
             return
         self.command_mm = msg.data
+        self.last_command_s, self.free_running = self.sim.time_s, False
         now = time.monotonic()
         answered = self.timing.answered(now)
         if answered and not self.started:
@@ -121,10 +203,20 @@ class PlantNode(Node):
     def _on_strut_command(self, msg: JointState) -> None:
         try:
             positions = dict(zip(msg.name, msg.position)) if msg.name else dict(zip(self.strut_names, msg.position))
-            self.sim.command_struts([positions[name] for name in self.strut_names])
+            lengths = [positions[name] for name in self.strut_names]
+            if not all(math.isfinite(v) and abs(v) < 100.0 for v in lengths):
+                raise ValueError(f"strut lengths must be finite and under 100 m, got {lengths}")
         except (KeyError, ValueError) as error:
             self.diagnostics.count("rejected_strut_command")
             self.get_logger().warning(f"strut command rejected: {error}", throttle_duration_sec=1.0)
+            return
+        stamp_s = Time.from_msg(msg.header.stamp).nanoseconds / 1e9
+        if stamp_s <= self.sim.time_s:
+            self.sim.command_struts(lengths)
+        elif self.strut_queue and stamp_s < self.strut_queue[-1][0] or len(self.strut_queue) >= 10000:
+            self.diagnostics.count("rejected_strut_command")  # out of order, or a flood
+        else:  # a path streamed ahead: apply it when its time comes (deterministic in lock-step)
+            self.strut_queue.append((stamp_s, lengths))
 
     # -- stepping --------------------------------------------------------------------------
     def _advance(self) -> None:
@@ -133,8 +225,44 @@ class PlantNode(Node):
             self.loop_end = self.loop_end or time.monotonic()
             return  # the run is over: hold still
         self.timing.cycle()
-        self.sim.advance(self.period_s, self.command_mm)
+        command_age_s = self.sim.time_s - self.last_command_s
+        if command_age_s > self.get_parameter("command_timeout_s").value:
+            self.command_mm = self.get_parameter("table_start_mm").value  # amplifier watchdog: retract
+        while self.strut_queue and self.strut_queue[0][0] <= self.sim.time_s + 1e-9:
+            self.sim.command_struts(self.strut_queue.popleft()[1])
+        try:
+            state = self.sim.advance(self.period_s, self.command_mm)
+        except ValueError as error:  # the tool left the machine's forward kinematics
+            self.diagnostics.count("simulation_errors")
+            self.get_logger().error(f"plant step failed: {error}", throttle_duration_sec=1.0)
+            return
+        if self.monitor is not None:
+            self._monitor_pass(state, command_age_s)
         self._publish_state()
+
+    def _monitor_pass(self, state, command_age_s: float) -> None:
+        report = self.monitor.on_period(state.time_s, state.deflection_mm, state.strut_speeds_m_s, command_age_s)
+        if report is None:
+            return
+        m = report.measurement
+        self.contour_publisher.publish(contour_to_message(m.contour_after, m.job_id, m.pass_index + 1,
+                                                          self.sim.cell.width_mm))
+        result = PassResult(job_id=m.job_id, pass_index=m.pass_index,
+                            status=PassResult.ABORTED if report.aborted else PassResult.COMPLETED,
+                            reason=report.reason, measured_cut_depth_mm=m.measured_cut_depth_mm,
+                            removed_volume_mm3=m.removed_volume_mm3, duration_s=report.duration_s,
+                            mean_normal_force_n=m.mean_normal_force_n, peak_normal_force_n=m.peak_normal_force_n,
+                            feed_speed_mm_s=m.mean_feed_mm_s, specific_energy_j_mm3=m.specific_energy_j_mm3,
+                            cut_depth_coefficient=(m.measured_cut_depth_mm * m.mean_feed_mm_s / m.mean_normal_force_n
+                                                   if m.mean_normal_force_n > 0 else 0.0),
+                            burn_detected=m.burn_detected, stall_detected=m.stall_detected)
+        result.header.stamp = Time(nanoseconds=round(state.time_s * 1e9)).to_msg()
+        self.result_publisher.publish(result)
+        self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
+        if m.burn_detected or m.stall_detected:
+            self.diagnostics.warn(f"pass {m.pass_index}: {'burn' if m.burn_detected else 'stall'} detected")
+        self.get_logger().info(f"pass {m.pass_index} of {m.job_id}: cut {m.measured_cut_depth_mm:.4f} mm, "
+                               f"{report.duration_s:.2f} s{', ABORTED: ' + report.reason if report.aborted else ''}")
 
     def _lockstep_watchdog(self) -> None:
         pending = self.timing.pending_since_s
@@ -144,7 +272,12 @@ class PlantNode(Node):
             self._publish_state()  # nobody answered yet: say it again
             return
         self.diagnostics.count("lockstep_timeouts")
+        self.free_running = True
         self._advance()
+
+    def _free_run(self) -> None:
+        if self.free_running:
+            self._advance()
 
     def _publish_state(self) -> None:
         state = self.sim.snapshot()
@@ -162,6 +295,11 @@ class PlantNode(Node):
             joints.header.stamp = stamp
             self.strut_publisher.publish(joints)
             self.deflection_publisher.publish(Float64(data=state.deflection_mm))
+        if state.centre_mm is not None:
+            centre = PointStamped()
+            centre.header.stamp, centre.header.frame_id = stamp, "bead"
+            centre.point.x, centre.point.z = state.centre_mm
+            self.centre_publisher.publish(centre)
         self.timing.sent(time.monotonic())
 
     def _report(self) -> None:

@@ -30,7 +30,6 @@ from action_msgs.msg import GoalStatus
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
@@ -39,18 +38,13 @@ from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, GrindingJo
                                       read_goal, unfinished_logs)
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.interfaces import LATCHED, RESULTS
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 
 REASONS = {DONE: GrindBead.Result.DONE, QUIT: GrindBead.Result.QUIT, CANCELLED: GrindBead.Result.CANCELLED,
            ABORTED: GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
-LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: pass results are kept by their publisher, so one sent while this node restarts (or before
-#: it has matched) still arrives; results for other passes are ignored, so replays are harmless
-RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-
-
 def goal_from_message(goal) -> JobGoal:
     """Validate a GrindBead goal into a JobGoal; ValueError with the reason otherwise."""
     contour = goal.bead

@@ -103,6 +103,7 @@ class ForceTable:
         w = 2 * math.pi * parameters.sensor_cutoff_hz
         self._sensor = _discrete([[0, 1], [-w * w, -2 * parameters.sensor_damping * w]], [0, w * w], step_s)
         self._rng = np.random.default_rng(seed)
+        self.surface_mm = None  # the work's table position when something else sets it (the grinding cell)
         self.reset()
 
     def reset(self, position_mm: float = 0.0) -> None:
@@ -123,7 +124,7 @@ class ForceTable:
         return max(self.p.disk_frequency_hz - self.p.disk_slowdown_hz_per_n * self.force_n, 5.0)
 
     def _force(self, position_mm: float) -> float:
-        depth = position_mm - self.p.contact_mm
+        depth = position_mm - (self.p.contact_mm if self.surface_mm is None else self.surface_mm)
         if depth <= 0:
             return 0.0
         k = self.p.stiffness_n_mm

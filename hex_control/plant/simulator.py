@@ -1,16 +1,22 @@
 """The simulated hardware as one object: the force table (with the grinder's compliance,
-runout and sensor) and the machine's struts, advanced together one control period at a
-time at a fixed internal step. Units: mm and N for the force axis, m for struts, s.
+runout and sensor), the machine's struts and, when given, the workpiece being ground
+(``GrindingCell``, placed by a ``ToolLocator``), advanced together one control period at a
+time at a fixed internal step. The cell grinds once per period with the tool where the
+struts (and the structural mode) put it, and tells the table where the work surface is.
+Units: mm and N for the force axis, m for struts, s.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
+from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.machine import Machine, MachineParameters
+from hex_control.plant.tool_locator import ToolLocator
 
 
 @dataclass(frozen=True)
@@ -23,12 +29,16 @@ class PlantSnapshot:
     strut_lengths_m: np.ndarray | None  # None until the first strut command
     strut_speeds_m_s: np.ndarray | None
     deflection_mm: float
+    centre_mm: tuple[float, float] | None  # disk centre (x, H) in the bead frame, with a cell
 
 
 class PlantSimulator:
     def __init__(self, table: ForceTableParameters = ForceTableParameters(),
                  machine: MachineParameters = MachineParameters(), step_s: float = 1e-3, seed: int = 0,
-                 table_start_mm: float = -1.0):
+                 table_start_mm: float = -1.0, cell: GrindingCell | None = None,
+                 locator: ToolLocator | None = None):
+        if (cell is None) != (locator is None):
+            raise ValueError("a grinding cell needs a tool locator, and the other way round")
         self.step_s = step_s
         self.table = ForceTable(table, step_s=step_s, seed=seed)
         self.table.reset(table_start_mm)
@@ -37,6 +47,10 @@ class PlantSimulator:
         self.force_command_mm = table_start_mm
         self.strut_commands_m = None
         self.time_s = 0.0
+        self.cell, self.locator = cell, locator
+        self.centre_mm = None
+        if cell is not None:
+            self.table.surface_mm = math.inf  # nothing to touch until the tool is placed
 
     def command_struts(self, lengths_m) -> None:
         """Hold these strut commands; the first ever also places the struts there (at rest)."""
@@ -59,10 +73,13 @@ class PlantSimulator:
             if self._machine_ready:
                 self.machine.step(self.strut_commands_m)
         self.time_s += steps * self.step_s
+        if self.cell is not None and self._machine_ready:
+            self.centre_mm = self.locator.centre_mm(self.machine.lengths_m, self.machine.deflection_mm)
+            self.table.surface_mm = self.cell.advance(duration_s, self.centre_mm, self.table.position_mm)
         return self.snapshot()
 
     def snapshot(self) -> PlantSnapshot:
         ready = self._machine_ready
         return PlantSnapshot(self.time_s, self.table.force_n, self.table.measured_n, self.table.position_mm,
                              self.table.disk_frequency_hz, self.machine.lengths_m if ready else None,
-                             self.machine.speeds_m_s if ready else None, self.machine.deflection_mm)
+                             self.machine.speeds_m_s if ready else None, self.machine.deflection_mm, self.centre_mm)

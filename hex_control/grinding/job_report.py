@@ -1,0 +1,133 @@
+"""The report of a grinding job run on the whole hierarchy: what each tier asked for and what
+the plant measured, as JSON and PNGs (contours after each pass, force tracking, the policy
+map with the job's trajectory, strut lengths), and statistics over many seeded jobs.
+
+Units: mm, N, s; charges in currency units.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from hex_control.grinding.plots import plot_policy_map
+from hex_control.plotting import plt, save
+
+
+@dataclass
+class JobRecord:
+    """What an observer of the graph saw."""
+
+    goal: dict = field(default_factory=dict)
+    contours: dict = field(default_factory=dict)  # pass index -> (Contour, width mm)
+    commands: dict = field(default_factory=dict)  # pass index -> the PassCommand's values
+    results: dict = field(default_factory=dict)  # pass index -> the PassResult's values
+    trajectories: dict = field(default_factory=dict)  # pass index -> (grind start s, times s, forces N)
+    force: list = field(default_factory=list)  # (t s, measured N)
+    struts: list = field(default_factory=list)  # (t s, lengths m ...)
+    outcome: dict | None = None
+    events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
+
+    @property
+    def intended(self) -> bool:
+        """The job ended by the policy's own logic (done or Quit Now), every pass reported."""
+        return self.outcome is not None and self.outcome["reason"] in ("done", "quit") \
+            and sorted(self.results) == list(range(len(self.results)))
+
+    def summary(self) -> dict:
+        passes = [{"pass": i, **self.commands.get(i, {}), **{f"measured_{k}" if k in self.commands.get(i, {}) else k: v
+                                                             for k, v in self.results[i].items()}}
+                  for i in sorted(self.results)]
+        start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else math.nan
+        return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
+                "ended_as_intended": self.intended, "passes": passes,
+                "burn": any(r["burn"] for r in self.results.values()),
+                "stall": any(r["stall"] for r in self.results.values())}
+
+
+def write_report(record: JobRecord, out: Path, policy=None) -> dict:
+    """JSON and PNGs of one job in ``out``; ``policy`` (the start policy) for the map."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = record.summary()
+    (out / "job.json").write_text(json.dumps(summary, indent=2, default=float))
+    _plot_contours(record, out / "contours.png")
+    _plot_force(record, out / "force_tracking.png")
+    _plot_struts(record, out / "strut_lengths.png")
+    if policy is not None:
+        trajectory = [(c["time_remaining_s"], c["material_mm"]) for _, c in sorted(record.commands.items())]
+        if record.outcome:
+            trajectory.append((record.outcome["time_remaining_s"], record.outcome["material_remaining_mm"]))
+        plot_policy_map(out / "policy_map.png", policy, trajectory)
+    return summary
+
+
+def _plot_contours(record: JobRecord, path: Path) -> None:
+    if not record.contours:
+        return
+    fig, ax = plt.subplots(figsize=(11, 4.5))
+    colours = plt.cm.viridis(np.linspace(0, 1, max(len(record.contours), 2)))
+    for colour, (index, (contour, _)) in zip(colours, sorted(record.contours.items())):
+        ax.plot(contour.x_mm, contour.z_mm, color=colour, lw=1.1,
+                label="initial" if index == 0 else f"after pass {index}")
+    first = record.contours[min(record.contours)][0]
+    ax.plot(first.x_mm, first.parent_mm, "k--", lw=0.8, label="parent surface")
+    ax.set_xlabel("x along the bead (mm)")
+    ax.set_ylabel("height (mm)")
+    ax.set_title("Scanned profile after each pass")
+    ax.legend(fontsize=8, ncol=2)
+    save(fig, path, dpi=100)
+
+
+def _plot_force(record: JobRecord, path: Path) -> None:
+    if not record.force:
+        return
+    force = np.asarray(record.force)
+    fig, ax = plt.subplots(figsize=(11, 4.5))
+    ax.plot(force[:, 0], force[:, 1], lw=0.5, color="tab:blue", label="measured (sensor)")
+    for index, (start, t, f) in sorted(record.trajectories.items()):
+        ax.plot(start + np.asarray(t), f, lw=1.2, color="tab:red", label="desired" if index == 0 else None)
+    ax.set_xlabel("plant time (s)")
+    ax.set_ylabel("normal force (N)")
+    ax.set_title("Force tracking over the job")
+    ax.legend()
+    save(fig, path, dpi=100)
+
+
+def _plot_struts(record: JobRecord, path: Path) -> None:
+    if not record.struts:
+        return
+    struts = np.asarray(record.struts)
+    fig, ax = plt.subplots(figsize=(11, 4.5))
+    for k in range(1, struts.shape[1]):
+        ax.plot(struts[:, 0], struts[:, k] * 1000.0, lw=1.0, label=f"strut {k - 1}")
+    ax.set_xlabel("plant time (s)")
+    ax.set_ylabel("length (mm)")
+    ax.set_title("Strut lengths")
+    ax.legend(fontsize=8, ncol=3)
+    save(fig, path, dpi=100)
+
+
+def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
+    """Over many jobs: the final material, charges against the start policy's expected
+    penalty (mean and its standard error), overgrinding beyond the tolerance, burn."""
+    charges = np.array([s["outcome"]["total_charge"] for s in summaries])
+    expected = np.array([s["expected_penalty_at_start"] for s in summaries])
+    final = np.array([s["outcome"]["material_remaining_mm"] for s in summaries])
+    n = len(summaries)
+    se = float(charges.std(ddof=1) / math.sqrt(n)) if n > 1 else math.nan
+    return {"jobs": n, "ended_as_intended": int(sum(s["ended_as_intended"] for s in summaries)),
+            "reasons": {r: sum(s["outcome"]["reason"] == r for s in summaries) for r in ("done", "quit", "aborted")},
+            "passes_mean": float(np.mean([s["outcome"]["passes"] for s in summaries])),
+            "final_material_mm": {"mean": float(final.mean()), "min": float(final.min()), "max": float(final.max())},
+            "overground": int(np.sum(final < 0)),  # below the final contour: the band is 0 <= X <= tolerance
+            "inside_tolerance_band": int(np.sum((final >= 0) & (final <= tolerance_mm))),
+            "burns": int(sum(s["burn"] for s in summaries)), "stalls": int(sum(s["stall"] for s in summaries)),
+            "charge_mean": float(charges.mean()), "charge_standard_error": se,
+            "expected_penalty_mean": float(expected.mean()),
+            "charge_minus_expected_in_standard_errors": float((charges.mean() - expected.mean()) / se)
+            if se and se > 0 else math.nan}

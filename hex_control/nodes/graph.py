@@ -1,0 +1,111 @@
+"""The whole node graph as processes, without ros2 launch (DESIGN.md section 4).
+
+``graph_nodes`` lists every node of the grinding hierarchy with its command line (the
+shipped configuration, sim time from the plant); ``NodeGraph`` starts them as separate
+processes, each logging to its own file, and can stop, kill or restart one (the fault
+tests do). The same command lines work with the console scripts (``hex-plant`` ...) or
+``ros2 run hex_control plant`` in a full ROS 2 install.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from hex_control.config import config_file
+
+SIM_TIME = ["-p", "use_sim_time:=true"]
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    name: str
+    module: str  # hex_control.nodes.<module>
+    arguments: tuple[str, ...]  # after --ros-args
+
+    def command(self) -> list[str]:
+        return [sys.executable, "-m", f"hex_control.nodes.{self.module}", "--ros-args", *self.arguments]
+
+
+def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_overrides: dict | None = None,
+                machine_file: str | None = None, real_time_factor: float = 1.0) -> list[NodeSpec]:
+    """The grinding hierarchy with the shipped configuration: plant (``mode``, process
+    variation seeded by ``seed``), kinematics, input shaper, force controller (answering
+    every measurement), pass planner, sequence planner (job log in ``job_dir``) and the
+    two load predictors."""
+    machine = ["-p", f"machine_file:={machine_file}"] if machine_file else []
+    plant = ["--params-file", str(config_file("plant.yaml")), "-p", f"mode:={mode}", "-p", f"seed:={seed}",
+             "-p", f"real_time_factor:={float(real_time_factor)}", *machine]
+    for name, value in (plant_overrides or {}).items():
+        plant += ["-p", f"{name}:={value}"]
+    predictors = str(config_file("load_predictor.yaml"))
+    return [
+        NodeSpec("plant", "plant", tuple(plant)),
+        NodeSpec("kinematics", "kinematics", (*SIM_TIME, *machine)),
+        NodeSpec("input_shaper", "input_shaper", tuple(SIM_TIME)),
+        NodeSpec("force_controller", "force_controller", (*SIM_TIME, "-p", "trigger:=measurement")),
+        NodeSpec("pass_planner", "pass_planner", tuple(SIM_TIME)),
+        NodeSpec("sequence_planner", "sequence_planner", (*SIM_TIME, "-p", f"job_dir:={job_dir}")),
+        NodeSpec("load_predictor_force", "load_predictor",
+                 ("-r", "__ns:=/load_predictor", "-r", "__node:=force", "--params-file", predictors, *SIM_TIME)),
+        NodeSpec("load_predictor_pass", "load_predictor",
+                 ("-r", "__ns:=/load_predictor", "-r", "__node:=pass", "--params-file", predictors, *SIM_TIME)),
+    ]
+
+
+class NodeGraph:
+    """Start, stop, kill and restart the graph's processes; logs in ``log_dir``."""
+
+    def __init__(self, nodes: list[NodeSpec], log_dir: Path, env: dict | None = None):
+        self.specs = {spec.name: spec for spec in nodes}
+        self.log_dir = Path(log_dir)
+        self.log_dir.mkdir(parents=True, exist_ok=True)
+        self.env = dict(os.environ if env is None else env)
+        self.env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        self.env["PYTHONUNBUFFERED"] = "1"
+        self.processes: dict[str, subprocess.Popen] = {}
+        self.starts: dict[str, int] = {}
+
+    def start(self, name: str | None = None) -> None:
+        for spec in ([self.specs[name]] if name else self.specs.values()):
+            count = self.starts.get(spec.name, 0)
+            log = open(self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log", "w")
+            self.processes[spec.name] = subprocess.Popen(spec.command(), env=self.env, stdout=log,
+                                                         stderr=subprocess.STDOUT, start_new_session=True)
+            log.close()
+            self.starts[spec.name] = count + 1
+
+    def kill(self, name: str) -> None:
+        """SIGKILL: the node gets no chance to clean up (a crash)."""
+        process = self.processes.pop(name)
+        process.kill()
+        process.wait()
+
+    def stop(self, name: str | None = None, timeout_s: float = 10.0) -> dict[str, int]:
+        """SIGINT, then SIGKILL after ``timeout_s``; the exit codes."""
+        names = [name] if name else list(self.processes)
+        for n in names:
+            if self.processes[n].poll() is None:
+                self.processes[n].send_signal(signal.SIGINT)
+        codes = {}
+        for n in names:
+            process = self.processes.pop(n)
+            try:
+                codes[n] = process.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                codes[n] = process.wait()
+        return codes
+
+    def dead(self) -> dict[str, int]:
+        """Processes that have exited on their own, with their exit codes."""
+        return {name: p.returncode for name, p in self.processes.items() if p.poll() is not None}
+
+    def log_tail(self, name: str, lines: int = 20) -> str:
+        count = self.starts.get(name, 1) - 1
+        path = self.log_dir / f"{name}{'-' + str(count) if count else ''}.log"
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:]) if path.exists() else ""

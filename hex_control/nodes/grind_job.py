@@ -1,0 +1,298 @@
+"""The main job: start the whole hierarchy, grind one weld bead, report (DESIGN.md section 4).
+
+``run_job`` starts every node as its own process (:mod:`hex_control.nodes.graph`), waits
+for the plant's scanner to publish the bead, sends the GrindBead goal with that profile to
+the sequence planner, and records over ROS 2 what the tiers hand each other: pass commands,
+force trajectories, measured forces, strut lengths, pass results and contours. It prints a
+pass-by-pass table as the job goes and writes the report (:mod:`hex_control.grinding.job_report`).
+
+Exit code 0 only if the job ended as the policy intended (done, or Quit Now).
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import rclpy
+import yaml
+from geometry_msgs.msg import WrenchStamped
+from rclpy.action import ActionClient
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+
+from hex_control.grinding.job_report import JobRecord
+from hex_control.nodes.graph import NodeGraph, graph_nodes
+from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
+from hex_control_msgs.action import GrindBead
+from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+
+
+class JobObserver(Node):
+    def __init__(self, record: JobRecord, **kwargs):
+        super().__init__("grind_job", **kwargs)
+        self.record = record
+        self.client = ActionClient(self, GrindBead, "/sequence_planner/grind_bead")
+        self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
+        self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
+        self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
+        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, STREAM)
+        self.create_subscription(JointState, "/plant/strut_states", self._on_struts, STREAM)
+        self.create_subscription(GrindBead.Result, "/sequence_planner/job_result", self._on_job_result, LATCHED)
+        self.job_id = None
+        self.job_result = None
+
+    def _mine(self, job_id: str) -> bool:
+        return self.job_id is not None and job_id == self.job_id
+
+    def _on_contour(self, msg: ContourMsg) -> None:
+        if msg.pass_index == 0 and not msg.job_id or self._mine(msg.job_id):
+            self.record.contours.setdefault(int(msg.pass_index), (contour_from_message(msg), msg.bead_width_mm))
+
+    def _on_command(self, msg: PassCommand) -> None:
+        if self._mine(msg.job_id):
+            self.record.events.append(("command", int(msg.pass_index)))
+            self.record.commands[int(msg.pass_index)] = {
+                "force_n": msg.normal_force_n, "feed_mm_s": msg.feed_speed_mm_s, "cut_depth_mm": msg.cut_depth_mm,
+                "material_mm": msg.material_remaining_mm, "time_remaining_s": msg.time_remaining_s,
+                "expected_penalty": msg.expected_penalty, "duration_s": msg.pass_duration_s}
+
+    def _on_result(self, msg: PassResult) -> None:
+        if self._mine(msg.job_id):
+            self.record.events.append(("result", int(msg.pass_index)))
+            self.record.results[int(msg.pass_index)] = {
+                "status": ("completed", "aborted", "rejected")[msg.status], "reason": msg.reason,
+                "measured_cut_depth_mm": msg.measured_cut_depth_mm, "duration_s": msg.duration_s,
+                "mean_normal_force_n": msg.mean_normal_force_n, "peak_normal_force_n": msg.peak_normal_force_n,
+                "feed_speed_mm_s": msg.feed_speed_mm_s, "specific_energy_j_mm3": msg.specific_energy_j_mm3,
+                "burn": msg.burn_detected, "stall": msg.stall_detected}
+
+    def _on_trajectory(self, msg: ForceTrajectory) -> None:
+        if self._mine(msg.job_id):
+            self.record.events.append(("trajectory", int(msg.pass_index)))
+            start = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            self.record.trajectories[int(msg.pass_index)] = (start, list(msg.time_from_start_s),
+                                                             list(msg.normal_force_n))
+
+    def _on_job_result(self, msg) -> None:
+        if self.job_id is not None:
+            self.job_result = msg
+
+    def _on_wrench(self, msg: WrenchStamped) -> None:
+        self.record.force.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, msg.wrench.force.z))
+
+    def _on_struts(self, msg: JointState) -> None:
+        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        if not self.record.struts or stamp - self.record.struts[-1][0] >= 0.05 - 1e-9:
+            self.record.struts.append((stamp, *msg.position))
+
+
+def print_row(index: int, command: dict, result: dict) -> None:
+    print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
+          f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['cut_depth_mm']:>8.4f} "
+          f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
+          f"{result['duration_s']:>6.2f} {result['status']}", flush=True)
+
+
+HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'plan mm':>8} {'meas mm':>8} "
+          f"{'F meas':>7} {'dur s':>6} status")
+
+
+class JobSession:
+    """A fresh graph, an observer in its own rclpy context, and one job on it. Use as a
+    context manager; ``start_job`` sends the goal, ``wait_for_outcome`` spins to the end
+    (the fault tests kill and restart nodes in between, through ``graph``)."""
+
+    def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
+                 plant_overrides: dict | None = None):
+        self.output = Path(output)
+        self.graph = NodeGraph(graph_nodes(self.output / "jobs", seed, mode, plant_overrides,
+                                           real_time_factor=real_time_factor), self.output / "logs")
+        self.seed, self.mode = seed, mode
+        self.record = JobRecord()
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.observer = JobObserver(self.record, context=self.context)
+        self.executor.add_node(self.observer)
+        self.result_future = None
+
+    def __enter__(self) -> JobSession:
+        self.graph.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.executor.remove_node(self.observer)
+        self.observer.destroy_node()
+        self.executor.shutdown()
+        self.context.try_shutdown()
+        self.graph.stop()
+
+    def spin_until(self, condition, timeout_s: float, what: str):
+        end = time.monotonic() + timeout_s
+        while not (value := condition()):
+            if time.monotonic() > end:
+                raise TimeoutError(f"timed out after {timeout_s:g} s waiting for {what}")
+            if self.graph.dead():
+                name, code = next(iter(self.graph.dead().items()))
+                raise RuntimeError(f"node {name} exited with {code}:\n{self.graph.log_tail(name)}")
+            self.executor.spin_once(timeout_sec=0.05)
+        return value
+
+    def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
+        record, observer = self.record, self.observer
+        self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
+        self.spin_until(lambda: observer.client.wait_for_server(timeout_sec=0.05), 60.0,
+                        "the sequence planner's action server")
+        time.sleep(1.0)  # let the action's topics match before the goal (rclpy Kilted)
+        bead, width = record.contours[0]
+        goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
+                              bead_width_mm=float(width))
+        goal.bead.x_mm, goal.bead.z_mm, goal.bead.parent_mm = bead.x_mm.tolist(), bead.z_mm.tolist(), \
+            bead.parent_mm.tolist()
+        if reset_time_s is not None:
+            goal.process_yaml = yaml.safe_dump({"reset_time_s": float(reset_time_s)})
+        observer.job_id = goal.job_id
+        record.goal = {"job_id": goal.job_id, "deadline_s": deadline_s, "bead_width_mm": width, "seed": self.seed,
+                       "reset_time_s": reset_time_s, "mode": self.mode,
+                       "material_mm": float(np.trapezoid(bead.z_mm - bead.parent_mm, bead.x_mm) / bead.length_mm)}
+        sent = observer.client.send_goal_async(goal)
+        self.spin_until(sent.done, 60.0, "the goal's acceptance")
+        self.result_future = sent.result().get_result_async()
+        return goal.job_id
+
+    def wait_for_outcome(self, timeout_s: float, on_pass=None) -> dict:
+        """Spin until the job's result (the action's, or the planner's latched job_result
+        after a restart); ``on_pass(index, command, result)`` for each pass as it ends."""
+        record, seen = self.record, set()
+
+        def finished():
+            for index in sorted(set(record.results) - seen):
+                if index in record.commands:
+                    seen.add(index)
+                    if on_pass:
+                        on_pass(index, record.commands[index], record.results[index])
+            if self.result_future.done():
+                return self.result_future.result().result
+            return self.observer.job_result
+
+        result = self.spin_until(finished, timeout_s, "the job's result")
+        end = time.monotonic() + 2.0  # the last contour comes with the last result
+        while time.monotonic() < end and max(record.contours) < len(record.results):
+            self.executor.spin_once(timeout_sec=0.05)
+        record.outcome = {"reason": REASONS[result.reason], "message": result.message, "passes": result.passes,
+                          "material_remaining_mm": result.material_remaining_mm,
+                          "time_remaining_s": result.time_remaining_s, "lateness_s": result.lateness_s,
+                          "total_charge": result.total_charge}
+        return record.outcome
+
+
+REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
+
+
+def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
+            real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
+            timeout_s: float = 1800.0, quiet: bool = False) -> JobRecord:
+    """Run one job on a fresh graph; returns what was recorded (the graph is stopped)."""
+    with JobSession(output, seed, mode, real_time_factor, plant_overrides) as session:
+        session.start_job(deadline_s, reset_time_s)
+        if not quiet:
+            bead, width = session.record.contours[0]
+            print(f"job {session.record.goal['job_id']}: bead {bead.length_mm:.0f} mm x {width:g} mm, mean height "
+                  f"{session.record.goal['material_mm']:.3f} mm, deadline {deadline_s:g} s")
+            print(HEADER)
+        session.wait_for_outcome(timeout_s, None if quiet else print_row)
+    return session.record
+
+
+def start_policy(record: JobRecord):
+    """The policy the sequence planner solved for this goal at the start (same config)."""
+    import dataclasses
+
+    from hex_control.config import config_file
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.sdp import solve
+
+    process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
+    bead, width = record.contours[0]
+    changes = {"bead_width_mm": width, "bead_length_mm": bead.length_mm}
+    if record.goal.get("reset_time_s") is not None:
+        changes["reset_time_s"] = record.goal["reset_time_s"]
+    process = dataclasses.replace(process, **changes)
+    deadline = record.goal["deadline_s"]
+    if deadline > grid.horizon_s:
+        grid = dataclasses.replace(grid, horizon_s=float(np.ceil(deadline / grid.time_step_s) * grid.time_step_s))
+    return solve(process, charges, grid, cut_model), charges
+
+
+def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0) -> dict:
+    """t_R measured on the plant's machine model, with the input shaper's default (ZVD at
+    the structural mode) and without: what the sequence planner plans with."""
+    from hex_control.config import config_file
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.kinematics import load_machine
+    from hex_control.plant.machine import MachineParameters
+    from hex_control.plant.reset_time import measure_reset_time
+    from hex_control.shaping.shapers import design
+
+    plant = yaml.safe_load(config_file("plant.yaml").read_text())["plant"]["ros__parameters"]
+    parameters = MachineParameters(**{k: plant[k] for k in ("servo_frequency_hz", "servo_damping",
+                                                              "mode_frequency_hz", "mode_damping")})
+    config = load_pass_planner_config("pass_planner.yaml")
+    machine, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))
+    height = config.model.radius_mm * np.sin(config.model.relaxed_angle_rad) + 1.0
+    shaper = design("zvd", parameters.mode_frequency_hz, parameters.mode_damping)
+    return {name: measure_reset_time(machine, config.frame, bead_length_mm, feed_mm_s, height, config.path,
+                                     parameters, s)
+            for name, s in (("unshaped", None), ("zvd", shaper))}
+
+
+def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
+             bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float) -> int:
+    """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
+    the statistics. 0 only if every job ended as its policy intended, without burn."""
+    import json
+
+    from hex_control.grinding.job_report import job_statistics, write_report
+
+    out = Path(output)
+    reset = calibrate_reset_time(bead_length_mm)
+    for name, r in reset.items():
+        print(f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
+              f"peak deflection {r.peak_deflection_mm:.3f} mm)")
+    shortest = bead_length_mm / 75.0
+    print(f"shaping buys {reset['unshaped'].reset_time_s - reset['zvd'].reset_time_s:.2f} s a pass: "
+          f"{int(deadline_s // (shortest + reset['unshaped'].reset_time_s))} -> "
+          f"{int(deadline_s // (shortest + reset['zvd'].reset_time_s))} fastest passes fit in {deadline_s:g} s")
+    overrides = {"bead_length_mm": float(bead_length_mm), "bead_height_mm": float(bead_height_mm),
+                 "dulling_per_pass": float(dulling_per_pass)}
+    summaries = []
+    for k in range(jobs):
+        directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
+        start = time.monotonic()
+        record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
+                            overrides, quiet=jobs > 1)
+        wall = time.monotonic() - start
+        policy, charges = start_policy(record)
+        summary = write_report(record, directory, policy)
+        simulated = sum(r["duration_s"] for r in record.results.values())
+        summary["wall_s"], summary["simulated_pass_time_s"] = wall, simulated
+        (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
+        summaries.append(summary)
+        o = record.outcome
+        print(f"job {seed + k}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
+              f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
+              f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); "
+              f"{simulated:.0f} s of passes in {wall:.0f} s wall", flush=True)
+    if jobs > 1:
+        stats = job_statistics(summaries, charges.deadline.tolerance_mm)
+        (out / "statistics.json").write_text(json.dumps(stats, indent=2))
+        print(json.dumps(stats, indent=2))
+    print(f"report: {out}")
+    ok = all(s["ended_as_intended"] and not s["burn"] for s in summaries)
+    return 0 if ok else 1

@@ -1,0 +1,81 @@
+"""The reset time t_R the sequence planner plans with, measured on the simulated machine
+(DESIGN.md section 4: shaping the reset moves lets the machine settle sooner).
+
+A pass's duration is L / V_f + t_R (seed 002 eq. 5.6). Everything in a pass's path that
+is not grinding -- the approach, the retract, the reset move back and the time the
+structure then needs to stop ringing -- is t_R. ``measure_reset_time`` runs one pass's path
+(at constant height, the grinding phase at ``feed_mm_s``) through an optional input
+shaper, the machine's inverse kinematics and the strut/structural-mode model, and measures
+when the deflection has settled inside ``settle_mm`` for good.
+
+Units: mm, s (strut lengths m inside the machine model).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hex_control.grinding.tool_path import BeadFrame, PathTiming, pass_tool_path
+from hex_control.kinematics import Pru3Geometry, StewartGeometry
+from hex_control.kinematics import pru3 as pru3_kinematics
+from hex_control.kinematics.stewart import strut_lengths
+from hex_control.plant.machine import Machine, MachineParameters
+from hex_control.shaping.filter import ShaperFilter
+from hex_control.shaping.shapers import Shaper
+
+
+@dataclass(frozen=True)
+class ResetTime:
+    reset_time_s: float  # t_R: pass duration minus L / V_f
+    path_s: float  # the commanded path, shaper delay included
+    settle_s: float  # after the path's end until the deflection stays inside the band
+    peak_deflection_mm: float  # after the path's end
+
+
+def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.ndarray:
+    if isinstance(machine, Pru3Geometry):
+        # the 3-PRU holds z, alpha, beta: the tool's height drives it (x, y are parasitic)
+        q = np.column_stack([positions_mm[:, 2], np.zeros(len(positions_mm)), np.zeros(len(positions_mm))])
+        return pru3_kinematics.inverse_kinematics(machine, q).lengths_mm / 1000.0
+    poses = np.column_stack([positions_mm, np.tile(orientation_rpy_rad, (len(positions_mm), 1))])
+    return strut_lengths(machine, poses) / 1000.0
+
+
+def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
+                       feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
+                       parameters: MachineParameters = MachineParameters(), shaper: Shaper | None = None,
+                       settle_mm: float = 0.01, step_s: float = 1e-3, max_settle_s: float = 30.0) -> ResetTime:
+    if not (length_mm > 0 and feed_mm_s > 0 and settle_mm > 0):
+        raise ValueError("need a positive length, feed and settle band")
+    grind_t = np.linspace(0.0, length_mm / feed_mm_s, 101)
+    path = pass_tool_path(frame, grind_t, np.linspace(0.0, length_mm, 101), np.full(101, height_mm), timing)
+    positions = path.positions_mm
+    if shaper is not None:
+        shaping = ShaperFilter(shaper, timing.sample_period_s, channels=3)
+        shaping.reset(positions[0])
+        tail = round(shaping.delay_s / timing.sample_period_s)
+        padded = np.vstack([positions, np.repeat(positions[-1:], tail, axis=0)])
+        positions = np.array([shaping.step(p) for p in padded])
+    rpy = np.radians(frame.orientation_rpy_deg)
+    lengths = _lengths_m(machine, positions, rpy)
+    end = lengths[-1]
+    struts = lengths.shape[1]
+    model = Machine(MachineParameters(**{**parameters.__dict__, "struts": struts,
+                                         "participation": 1.0 / struts}), step_s)
+    model.reset(lengths[0])
+    per_sample = round(timing.sample_period_s / step_s)
+    for row in lengths:
+        for _ in range(per_sample):
+            model.step(row)
+    path_s = len(lengths) * timing.sample_period_s
+    deflection, last_outside = [], 0.0
+    for k in range(round(max_settle_s / step_s)):
+        model.step(end)
+        deflection.append(model.deflection_mm)
+        if abs(model.deflection_mm) > settle_mm:
+            last_outside = (k + 1) * step_s
+    settle = last_outside
+    return ResetTime(path_s + settle - length_mm / feed_mm_s, path_s, settle,
+                     float(np.max(np.abs(deflection))) if deflection else 0.0)

@@ -1,0 +1,39 @@
+"""Where the machine holds the grinder: forward kinematics of the actual strut lengths, in
+the bead's plane (DESIGN.md section 4, plant). The structural mode's deflection moves the
+tool along the bead's normal, so a ringing machine grinds a ringing surface.
+
+Units: strut lengths in m (as on /plant/strut_states), positions in mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hex_control.grinding.tool_path import BeadFrame
+from hex_control.kinematics import Pru3Geometry, StewartGeometry
+from hex_control.kinematics import pru3 as pru3_kinematics
+from hex_control.kinematics.stewart import forward_kinematics
+
+
+class ToolLocator:
+    """``centre_mm(lengths_m, deflection_mm)`` -> (x along the bead, H above it), warm-
+    started from the previous pose (the machine moves little in one control period)."""
+
+    def __init__(self, machine: StewartGeometry | Pru3Geometry, frame: BeadFrame):
+        self.machine, self.frame = machine, frame
+        self.is_pru3 = isinstance(machine, Pru3Geometry)
+        self.guess = np.asarray((200.0, 0.0, 0.0) if self.is_pru3 else machine.home_pose, float)
+
+    def position_mm(self, lengths_m) -> np.ndarray:
+        lengths_mm = np.asarray(lengths_m, float) * 1000.0
+        if self.is_pru3:
+            q, _ = pru3_kinematics.forward_kinematics(self.machine, lengths_mm, self.guess, tolerance_mm=1e-7)
+            self.guess = q
+            return pru3_kinematics.inverse_kinematics(self.machine, q).full[0, :3]
+        pose, _, _ = forward_kinematics(self.machine, lengths_mm, self.guess, tolerance_mm=1e-7)
+        self.guess = pose
+        return pose[:3]
+
+    def centre_mm(self, lengths_m, deflection_mm: float = 0.0) -> tuple[float, float]:
+        offset = self.position_mm(lengths_m) - np.asarray(self.frame.origin_mm)
+        return float(offset @ np.asarray(self.frame.along)), float(offset @ np.asarray(self.frame.up)) + deflection_mm

@@ -1,0 +1,100 @@
+"""The whole hierarchy over ROS 2, every node its own process, the plant in lock-step
+(DESIGN.md section 4; seed 002 3.3 and 6.7: each tier hands the next what it measured).
+
+A short bead keeps each job to about a minute of wall time."""
+
+import math
+
+import numpy as np
+import pytest
+
+from hex_control.nodes.grind_job import JobSession
+
+BEAD = {"bead_length_mm": 120.0, "bead_height_mm": 0.8}
+RESET_TIME_S = 4.2  # the ZVD-shaped t_R of the shipped machine (test_reset_time)
+
+
+def mean_height(contour) -> float:
+    return float(np.trapezoid(contour.z_mm - contour.parent_mm, contour.x_mm) / contour.length_mm)
+
+
+def assert_consistent(record, outcome):
+    """Each tier used what the one below measured: contiguous passes, one trajectory and
+    one result per pass, the scanner's profiles agree with the reported cuts, and the
+    planner's state after each pass is the measured one."""
+    passes = outcome["passes"]
+    assert sorted(record.results) == list(range(passes))
+    for kind in ("trajectory", "result"):
+        indices = [i for k, i in record.events if k == kind]
+        assert indices == list(range(passes)), f"{kind}s {indices}: a pass repeated or skipped"
+    x = record.goal["material_mm"]
+    for k in range(passes):
+        command, result = record.commands[k], record.results[k]
+        assert command["material_mm"] == pytest.approx(x, abs=1e-9)
+        before, after = mean_height(record.contours[k][0]), mean_height(record.contours[k + 1][0])
+        assert before - after == pytest.approx(result["measured_cut_depth_mm"], abs=1e-9)
+        x -= result["measured_cut_depth_mm"]
+    assert outcome["material_remaining_mm"] == pytest.approx(x, abs=1e-9)
+
+
+def test_a_job_ends_as_the_policy_intends(ros_env, tmp_path):
+    with JobSession(tmp_path, seed=3, plant_overrides=BEAD) as session:
+        session.start_job(45.0, RESET_TIME_S)
+        outcome = session.wait_for_outcome(400.0)
+    record = session.record
+    assert outcome["reason"] in ("done", "quit"), outcome
+    assert outcome["passes"] >= 2
+    assert_consistent(record, outcome)
+    for k, result in record.results.items():
+        command = record.commands[k]
+        assert result["status"] == "completed" and not result["burn"] and not result["stall"]
+        # the pass's duration is L / V_f + t_R: the plant measures what the planner assumed
+        assert result["duration_s"] == pytest.approx(120.0 / command["feed_mm_s"] + RESET_TIME_S, abs=0.5)
+        if command["cut_depth_mm"] >= 0.05:  # light passes lose more to stiction (test_loop_study)
+            assert result["measured_cut_depth_mm"] == pytest.approx(command["cut_depth_mm"], rel=0.35)
+    # the job ends within the tolerance band or by Quit Now with material left, never overground
+    assert outcome["material_remaining_mm"] > -0.02
+
+
+def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
+    with JobSession(tmp_path, seed=4, plant_overrides=BEAD) as session:
+        session.start_job(45.0, RESET_TIME_S)
+        session.spin_until(lambda: 0 in session.record.results, 300.0, "the first pass")
+        session.graph.kill("sequence_planner")
+        session.graph.start("sequence_planner")
+        outcome = session.wait_for_outcome(400.0)
+        restarted_log = session.graph.log_tail("sequence_planner", 200)
+    assert "resumed job" in restarted_log
+    assert outcome["reason"] in ("done", "quit"), outcome
+    assert outcome["passes"] >= 2
+    assert_consistent(session.record, outcome)
+
+
+def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros_env, tmp_path):
+    with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
+        session.start_job(60.0, RESET_TIME_S)
+        record = session.record
+        session.spin_until(lambda: record.force and record.force[-1][1] > 15.0, 300.0, "grinding force")
+        killed_at = record.force[-1][0]
+        session.graph.kill("force_controller")
+        session.spin_until(lambda: 0 in record.results, 120.0, "pass 0's result")
+        session.graph.start("force_controller")
+        outcome = session.wait_for_outcome(400.0)
+    # the plant's amplifier watchdog (0.1 s) retracts the table: no force 0.5 s later
+    force = np.asarray(record.force)
+    after = force[(force[:, 0] > killed_at + 0.5) & (force[:, 0] < killed_at + 3.0)]
+    assert after.size and np.max(np.abs(after[:, 1])) < 2.0  # sensor noise 0.3 N
+    assert record.results[0]["status"] == "aborted" and "force commands lost" in record.results[0]["reason"]
+    assert record.results[0]["measured_cut_depth_mm"] < record.commands[0]["cut_depth_mm"]
+    assert outcome["reason"] in ("done", "quit"), outcome
+    assert_consistent(record, outcome)  # pass 1 was planned from the measured (short) cut
+
+
+def test_an_impossible_deadline_ends_by_the_policy_not_by_a_timeout(ros_env, tmp_path):
+    with JobSession(tmp_path, seed=6, plant_overrides=BEAD) as session:
+        session.start_job(6.5, RESET_TIME_S)  # shorter than two of the fastest passes
+        outcome = session.wait_for_outcome(200.0)
+    assert outcome["reason"] == "quit", outcome
+    assert outcome["passes"] <= 1
+    assert math.isfinite(outcome["total_charge"]) and outcome["total_charge"] > 0
+    assert_consistent(session.record, outcome)
