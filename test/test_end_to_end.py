@@ -38,7 +38,9 @@ def assert_consistent(record, outcome):
 
 
 def test_a_job_ends_as_the_policy_intends(ros_env, tmp_path):
-    with JobSession(tmp_path, seed=3, plant_overrides=BEAD) as session:
+    """Without pass-to-pass variation the plant cuts what the tiers above planned."""
+    steady = {**BEAD, "specific_energy_cv": 0.0}
+    with JobSession(tmp_path, seed=3, plant_overrides=steady) as session:
         session.start_job(45.0, RESET_TIME_S)
         outcome = session.wait_for_outcome(400.0)
     record = session.record
@@ -50,8 +52,8 @@ def test_a_job_ends_as_the_policy_intends(ros_env, tmp_path):
         assert result["status"] == "completed" and not result["burn"] and not result["stall"]
         # the pass's duration is L / V_f + t_R: the plant measures what the planner assumed
         assert result["duration_s"] == pytest.approx(120.0 / command["feed_mm_s"] + RESET_TIME_S, abs=0.5)
-        if command["cut_depth_mm"] >= 0.05:  # light passes lose more to stiction (test_loop_study)
-            assert result["measured_cut_depth_mm"] == pytest.approx(command["cut_depth_mm"], rel=0.35)
+        if command["cut_depth_mm"] >= 0.1:  # light passes lose more to the force loop's lag and stiction
+            assert result["measured_cut_depth_mm"] == pytest.approx(command["cut_depth_mm"], rel=0.2)
     # the job ends within the tolerance band or by Quit Now with material left, never overground
     assert outcome["material_remaining_mm"] > -0.02
 

@@ -52,7 +52,11 @@ class JobObserver(Node):
 
     def _on_contour(self, msg: ContourMsg) -> None:
         if msg.pass_index == 0 and not msg.job_id or self._mine(msg.job_id):
-            self.record.contours.setdefault(int(msg.pass_index), (contour_from_message(msg), msg.bead_width_mm))
+            try:
+                contour = contour_from_message(msg)
+            except ValueError:
+                return  # not a profile (someone else's garbage on the topic)
+            self.record.contours.setdefault(int(msg.pass_index), (contour, msg.bead_width_mm))
 
     def _on_command(self, msg: PassCommand) -> None:
         if self._mine(msg.job_id):

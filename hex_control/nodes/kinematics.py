@@ -146,8 +146,8 @@ class KinematicsNode(Node):
         self.create_service(InverseKinematics, "~/inverse_kinematics", self._on_inverse)
         self.create_service(TestPose, "~/test_pose", self._on_test_pose)
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
-        self._command = self.create_publisher(JointState, "/plant/strut_command", 10)
-        self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 10)
+        self._command = self.create_publisher(JointState, "/plant/strut_command", 100)
+        self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 100)
         self._names = [f"strut_{i}" for i in range(self.core.strut_count)]
 
     def _fill_reports(self, request, response, service: str) -> bool:

@@ -11,6 +11,8 @@ Topics:
                                                                  this node's clock
     ~/status                   (DiagnosticStatus, latched)  out  OK + summary, or ERROR +
                                                                  the reason a command was refused
+    /grinding/pass_result      (PassResult)                 out  REJECTED + the reason, for a
+                                                                 refused command
     /diagnostics
 
 A command for pass k is planned on the contour after k passes (``pass_index`` k and the
@@ -24,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -37,10 +40,10 @@ from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import LATCHED, contour_from_message, contour_to_message
+from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
 
 class PassPlannerNode(Node):
     def __init__(self, **kwargs):
@@ -48,9 +51,10 @@ class PassPlannerNode(Node):
         read_only = ParameterDescriptor(read_only=True)
         self.declare_parameter("config", "pass_planner.yaml", read_only)
         self.declare_parameter("contour_wait_s", 5.0, read_only)
-        self.declare_parameter("start_delay_s", 0.2, ParameterDescriptor(
-            description="time from a finished plan to the start of its path (s, node clock)"))
-        self.declare_parameter("lookahead_s", 0.1, ParameterDescriptor(
+        self.declare_parameter("start_delay_s", 0.6, ParameterDescriptor(
+            description="time from a finished plan to the start of its path (s, node clock); "
+                        "no less than lookahead_s, so the stream starts without a burst"))
+        self.declare_parameter("lookahead_s", 0.5, ParameterDescriptor(
             description="path samples are sent this far ahead of their stamps (s), so that the "
                         "plant applies them on time whatever the latency of the chain"))
         self.config = load_pass_planner_config(self.get_parameter("config").value)
@@ -65,6 +69,7 @@ class PassPlannerNode(Node):
 
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
+        self.result_pub = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
         self.setpoint_pub = self.create_publisher(PoseStamped, "/motion/setpoint_raw", 100)
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
@@ -82,7 +87,7 @@ class PassPlannerNode(Node):
         if key in self.answered or (self.planning and _key(self.planning[0]) == key):
             return
         self.diagnostics.count("commands")
-        self.pending, self.pending_since = msg, self.get_clock().now()
+        self.pending, self.pending_since = msg, time.monotonic()  # a transport wait: wall time
         self._try_plan()
 
     def _contour_for(self, command: PassCommand) -> ContourMsg | None:
@@ -121,7 +126,7 @@ class PassPlannerNode(Node):
 
     def _poll(self) -> None:
         if self.pending is not None and self.planning is None and self._contour_for(self.pending) is None:
-            waited = (self.get_clock().now() - self.pending_since).nanoseconds / 1e9
+            waited = time.monotonic() - self.pending_since
             if waited > self.get_parameter("contour_wait_s").value:
                 command, self.pending = self.pending, None
                 latest = "none" if self.contour is None else f"the one after {self.contour.pass_index} passes"
@@ -144,6 +149,10 @@ class PassPlannerNode(Node):
         self.diagnostics.count(f"rejected_{kind}")
         self.get_logger().warn(f"pass {command.pass_index} of job {command.job_id!r} refused: {reason}")
         self._status(command, DiagnosticStatus.ERROR, reason, {})
+        result = PassResult(job_id=command.job_id, pass_index=command.pass_index, status=PassResult.REJECTED,
+                            reason=reason, specific_energy_j_mm3=math.nan)
+        result.header.stamp = self.get_clock().now().to_msg()
+        self.result_pub.publish(result)
 
     def _publish(self, command: PassCommand, plan, path, width_mm: float) -> None:
         self.answered.add(_key(command))

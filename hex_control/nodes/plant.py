@@ -9,9 +9,11 @@ Modes (``mode``):
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
   with the latest command; a period whose measurement went unanswered is a missed cycle.
-- Either way, force commands older than ``command_timeout_s`` (sim time) retract the table
-  to ``table_start_mm`` (the amplifier's own watchdog: a dead controller cannot keep
-  pushing), and in lock-step the plant then runs on in real time until commands return.
+- Either way, force commands older than ``command_timeout_s`` (sim time) drive the table
+  to its retract stop ``retract_mm`` (the amplifier's own watchdog: a dead controller cannot
+  keep pushing; the stop is far enough back to lift the disk off work that the tool path
+  still expects to cut), and in lock-step the plant then runs on in real time until
+  commands return.
 With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length). Timing
 counts from the first answered measurement; ``report_file`` also gets it as JSON every second.
 Command latency (measurement out to command in, wall time) and missed cycles are reported
@@ -87,7 +89,7 @@ VARIATION_PARAMETERS = ("specific_energy_cv", "friction_cv", "dulling_per_pass",
 CELL_PARAMETERS = (("grinding", False), ("machine_file", str(config_file("machines/nist_ingersoll.yaml"))),
                    ("pass_planner_config", "pass_planner.yaml"), ("bead_file", ""), ("bead_length_mm", 300.0),
                    ("bead_height_mm", 1.0), ("bead_end_ramp_mm", 12.0), ("bead_ripple_mm", 0.05), ("bead_seed", 0),
-                   ("burn_coefficient", 0.0), ("command_timeout_s", 0.1), ("settle_deflection_mm", 0.01),
+                   ("burn_coefficient", 0.0), ("command_timeout_s", 0.1), ("retract_mm", -5.0), ("settle_deflection_mm", 0.01),
                    ("max_settle_s", 10.0), *((n, getattr(ProcessVariation(), n)) for n in VARIATION_PARAMETERS))
 
 
@@ -227,7 +229,7 @@ class PlantNode(Node):
         self.timing.cycle()
         command_age_s = self.sim.time_s - self.last_command_s
         if command_age_s > self.get_parameter("command_timeout_s").value:
-            self.command_mm = self.get_parameter("table_start_mm").value  # amplifier watchdog: retract
+            self.command_mm = self.get_parameter("retract_mm").value  # amplifier watchdog
         while self.strut_queue and self.strut_queue[0][0] <= self.sim.time_s + 1e-9:
             self.sim.command_struts(self.strut_queue.popleft()[1])
         try:

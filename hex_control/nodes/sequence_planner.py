@@ -220,6 +220,10 @@ class SequencePlannerNode(Node):
         if pending is None or msg.job_id != job.goal.job_id or msg.pass_index != pending["pass_index"]:
             self.diagnostics.count("ignored_results")
             return
+        if msg.status == PassResult.REJECTED:  # the pass planner cannot plan it: nothing was ground
+            self.job.end(ABORTED, f"pass {msg.pass_index} rejected: {msg.reason}")
+            self._finish()
+            return
         values = (msg.measured_cut_depth_mm, msg.duration_s)
         if not all(math.isfinite(v) for v in values) or msg.duration_s < 0 or abs(msg.measured_cut_depth_mm) > 100:
             self.diagnostics.count("rejected_results")
