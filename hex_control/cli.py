@@ -20,6 +20,9 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--bead-length", type=float, default=300.0, help="bead length (mm)")
     demo.add_argument("--bead-height", type=float, default=1.0, help="bead height (mm)")
     demo.add_argument("--dulling", type=float, default=0.0, help="K1 growth per pass (a disk that dulls)")
+    demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
+                      "another host, e.g. 'ip netns exec hexA' (scripts/two_hosts.sh)")
+    demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
 
     predictor = commands.add_parser("demo-load-predictor", help="the Kalman load predictor alone over ROS 2")
     predictor.add_argument("--output", default="output/load_predictor", help="report directory")
@@ -292,7 +295,8 @@ def main(argv=None) -> int:
 
             return run_demo(args.output, args.deadline, args.seed, args.jobs,
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
-                            args.bead_length, args.bead_height, args.dulling)
+                            args.bead_length, args.bead_height, args.dulling,
+                            args.machine_host.split() or None, args.machine_peers)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

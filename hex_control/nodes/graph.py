@@ -3,7 +3,8 @@
 ``graph_nodes`` lists every node of the grinding hierarchy with its command line (the
 shipped configuration, sim time from the plant); ``NodeGraph`` starts them as separate
 processes, each logging to its own file, and can stop, kill or restart one (the fault
-tests do). The same command lines work with the console scripts (``hex-plant`` ...) or
+tests do). ``placement`` puts nodes on another host: a command prefix and environment per
+node, e.g. ``ip netns exec hexA`` with that host's ``ROS_STATIC_PEERS`` (scripts/two_hosts.sh). The same command lines work with the console scripts (``hex-plant`` ...) or
 ``ros2 run hex_control plant`` in a full ROS 2 install.
 """
 
@@ -19,6 +20,8 @@ from pathlib import Path
 from hex_control.config import config_file
 
 SIM_TIME = ["-p", "use_sim_time:=true"]
+#: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
+MACHINE_SIDE = ("plant", "kinematics", "input_shaper", "force_controller")
 
 
 @dataclass(frozen=True)
@@ -47,7 +50,8 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
         NodeSpec("plant", "plant", tuple(plant)),
         NodeSpec("kinematics", "kinematics", (*SIM_TIME, *machine)),
         NodeSpec("input_shaper", "input_shaper", tuple(SIM_TIME)),
-        NodeSpec("force_controller", "force_controller", (*SIM_TIME, "-p", "trigger:=measurement")),
+        NodeSpec("force_controller", "force_controller", ("--params-file", str(config_file("force_controller.yaml")),
+                                                           *SIM_TIME, "-p", "trigger:=measurement")),
         NodeSpec("pass_planner", "pass_planner", tuple(SIM_TIME)),
         NodeSpec("sequence_planner", "sequence_planner", (*SIM_TIME, "-p", f"job_dir:={job_dir}")),
         NodeSpec("load_predictor_force", "load_predictor",
@@ -60,8 +64,10 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
 class NodeGraph:
     """Start, stop, kill and restart the graph's processes; logs in ``log_dir``."""
 
-    def __init__(self, nodes: list[NodeSpec], log_dir: Path, env: dict | None = None):
+    def __init__(self, nodes: list[NodeSpec], log_dir: Path, env: dict | None = None,
+                 placement: dict[str, tuple[list[str], dict]] | None = None):
         self.specs = {spec.name: spec for spec in nodes}
+        self.placement = placement or {}
         self.log_dir = Path(log_dir)
         self.log_dir.mkdir(parents=True, exist_ok=True)
         self.env = dict(os.environ if env is None else env)
@@ -74,8 +80,9 @@ class NodeGraph:
         for spec in ([self.specs[name]] if name else self.specs.values()):
             count = self.starts.get(spec.name, 0)
             log = open(self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log", "w")
-            self.processes[spec.name] = subprocess.Popen(spec.command(), env=self.env, stdout=log,
-                                                         stderr=subprocess.STDOUT, start_new_session=True)
+            prefix, extra = self.placement.get(spec.name, ([], {}))
+            self.processes[spec.name] = subprocess.Popen([*prefix, *spec.command()], env={**self.env, **extra},
+                                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
             log.close()
             self.starts[spec.name] = count + 1
 

@@ -25,7 +25,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from hex_control.grinding.job_report import JobRecord
-from hex_control.nodes.graph import NodeGraph, graph_nodes
+from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -113,10 +113,11 @@ class JobSession:
     (the fault tests kill and restart nodes in between, through ``graph``)."""
 
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
-                 plant_overrides: dict | None = None):
+                 plant_overrides: dict | None = None, placement: dict | None = None):
         self.output = Path(output)
         self.graph = NodeGraph(graph_nodes(self.output / "jobs", seed, mode, plant_overrides,
-                                           real_time_factor=real_time_factor), self.output / "logs")
+                                           real_time_factor=real_time_factor), self.output / "logs",
+                               placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
@@ -186,9 +187,11 @@ class JobSession:
             return self.observer.job_result
 
         result = self.spin_until(finished, timeout_s, "the job's result")
-        end = time.monotonic() + 2.0  # the last contour comes with the last result
-        while time.monotonic() < end and max(record.contours) < len(record.results):
+        end = time.monotonic() + 2.0  # the last pass's result and contour may come after the job's
+        while time.monotonic() < end and (len(record.results) < result.passes
+                                          or max(record.contours) < len(record.results)):
             self.executor.spin_once(timeout_sec=0.05)
+        finished()
         record.outcome = {"reason": REASONS[result.reason], "message": result.message, "passes": result.passes,
                           "material_remaining_mm": result.material_remaining_mm,
                           "time_remaining_s": result.time_remaining_s, "lateness_s": result.lateness_s,
@@ -201,9 +204,9 @@ REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
 
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
-            timeout_s: float = 1800.0, quiet: bool = False) -> JobRecord:
+            timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped)."""
-    with JobSession(output, seed, mode, real_time_factor, plant_overrides) as session:
+    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement) as session:
         session.start_job(deadline_s, reset_time_s)
         if not quiet:
             bead, width = session.record.contours[0]
@@ -257,7 +260,8 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0) -> dict
 
 
 def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
-             bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float) -> int:
+             bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
+             machine_host: list[str] | None = None, machine_peers: str = "") -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. 0 only if every job ended as its policy intended, without burn."""
     import json
@@ -275,12 +279,17 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
           f"{int(deadline_s // (shortest + reset['zvd'].reset_time_s))} fastest passes fit in {deadline_s:g} s")
     overrides = {"bead_length_mm": float(bead_length_mm), "bead_height_mm": float(bead_height_mm),
                  "dulling_per_pass": float(dulling_per_pass)}
+    placement = None
+    if machine_host:  # the machine-side nodes on another host (network namespace) with its DDS peers
+        placement = {name: (machine_host, {"ROS_STATIC_PEERS": machine_peers} if machine_peers else {})
+                     for name in MACHINE_SIDE}
+        print(f"machine-side nodes {', '.join(MACHINE_SIDE)} run under: {' '.join(machine_host)}")
     summaries = []
     for k in range(jobs):
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
         start = time.monotonic()
         record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
-                            overrides, quiet=jobs > 1)
+                         overrides, quiet=jobs > 1, placement=placement)
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)
