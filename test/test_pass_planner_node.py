@@ -2,6 +2,7 @@
 tool path out; refused commands give a reason and nothing else."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -9,9 +10,12 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+import yaml
+
+from hex_control.config import config_file
 from hex_control.grinding.contour import weld_bead
-from hex_control.nodes.interfaces import contour_to_message
-from hex_control_msgs.msg import ForceTrajectory, PassCommand
+from hex_control.nodes.interfaces import RESULTS, contour_to_message
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
 from hex_control_msgs.msg import Contour as ContourMsg
 from ros_harness import wait_until
 
@@ -19,20 +23,25 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability
 BEAD = weld_bead(length_mm=60.0, height_mm=3.0, ripple_mm=0.1, seed=2)
 
 
-@pytest.fixture
-def planner(ros, spawn):
-    spawn(["hex-pass-planner", "--ros-args", "-p", "contour_wait_s:=1.0", "-p", "start_delay_s:=0.0"])
+def start_planner(ros, spawn, *arguments):
+    spawn(["hex-pass-planner", "--ros-args", "-p", "contour_wait_s:=1.0", "-p", "start_delay_s:=0.0", *arguments])
     node = ros.node("pass_client")
     outputs = {
         "trajectory": ros.collect(ForceTrajectory, "/grinding/force_trajectory", LATCHED),
         "status": ros.collect(DiagnosticStatus, "/pass_planner/status", LATCHED),
         "path": ros.collect(PoseStamped, "/motion/setpoint_raw", QoSProfile(depth=1000)),
+        "result": ros.collect(PassResult, "/grinding/pass_result", RESULTS),
     }
     publishers = {"command": node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED),
                   "contour": node.create_publisher(ContourMsg, "/grinding/contour", LATCHED)}
     ros.wait_for_match(node, "/grinding/force_trajectory", publishers=1, timeout_s=20.0)
     ros.wait_for_match(node, "/grinding/pass_command", subscribers=1, timeout_s=20.0)
     return publishers, outputs
+
+
+@pytest.fixture
+def planner(ros, spawn):
+    return start_planner(ros, spawn, "-p", "reachability_service:=''")  # no kinematics node here
 
 
 def _command(pass_index=0, depth=0.3, feed=10.0):
@@ -75,4 +84,23 @@ def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, comm
     publishers["command"].publish(command)
     status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 20.0, what="a refusal")
     assert status.level == DiagnosticStatus.ERROR and reason in status.message
+    assert outputs["trajectory"] == [] and outputs["path"] == []
+    result = wait_until(lambda: outputs["result"][-1] if outputs["result"] else None, 5.0, what="a pass result")
+    assert result.status == PassResult.REJECTED and reason in result.reason
+
+
+def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, spawn, tmp_path):
+    """TestPose of the kinematics node on every pass's path: a bead placed 2 m above the
+    NIST hexapod's workspace is refused with the offending pose."""
+    config = yaml.safe_load(config_file("pass_planner.yaml").read_text())
+    config["bead_frame"]["origin_mm"] = [-75.0, 0.0, 0.0]
+    (tmp_path / "far.yaml").write_text(yaml.safe_dump(config))
+    spawn(["hex-kinematics"])
+    publishers, outputs = start_planner(ros, spawn, "-p", f"config:={tmp_path / 'far.yaml'}")
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    publishers["command"].publish(_command())
+    result = wait_until(lambda: outputs["result"][-1] if outputs["result"] else None, 30.0, what="a refusal")
+    assert result.status == PassResult.REJECTED and "out of the machine's reach" in result.reason
+    x, y, z = map(float, re.search(r"pose \(([-\d.]+), ([-\d.]+), ([-\d.]+)\) mm", result.reason).groups())
+    assert -75.0 <= x <= 60.0 - 75.0 + 90.0 and y == 0.0 and z > 0.0  # on the bead, 2 m above the workspace
     assert outputs["trajectory"] == [] and outputs["path"] == []

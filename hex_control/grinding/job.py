@@ -19,7 +19,7 @@ from pathlib import Path
 
 from hex_control.grinding.sdp import Charges, Policy
 
-DONE, QUIT, CANCELLED, ABORTED = "done", "quit", "cancelled", "aborted"
+DONE, QUIT, CANCELLED, ABORTED, REJECTED = "done", "quit", "cancelled", "aborted", "rejected"
 
 
 @dataclass(frozen=True)

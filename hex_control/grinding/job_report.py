@@ -130,4 +130,5 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             "charge_mean": float(charges.mean()), "charge_standard_error": se,
             "expected_penalty_mean": float(expected.mean()),
             "charge_minus_expected_in_standard_errors": float((charges.mean() - expected.mean()) / se)
-            if se and se > 0 else math.nan}
+            if se and se > 0 else math.nan,
+            "jobs_charged": int(np.sum(charges > 0))}

@@ -15,6 +15,10 @@ Topics:
                                                                  refused command
     /diagnostics
 
+Before a path is sent, its poses (one sample in ten, and the last) are checked with the
+kinematics node's TestPose (``reachability_service``; '' = no check): a path the machine
+cannot reach is refused with the offending pose, before anything moves.
+
 A command for pass k is planned on the contour after k passes (``pass_index`` k and the
 same job, or a contour without a job id). If none has arrived within ``contour_wait_s``
 the command is refused. Planning runs in a worker thread; nothing is published for a
@@ -43,7 +47,8 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPose
+from hex_control_msgs.srv import TestPose
 
 class PassPlannerNode(Node):
     def __init__(self, **kwargs):
@@ -54,6 +59,8 @@ class PassPlannerNode(Node):
         self.declare_parameter("start_delay_s", 0.6, ParameterDescriptor(
             description="time from a finished plan to the start of its path (s, node clock); "
                         "no less than lookahead_s, so the stream starts without a burst"))
+        self.declare_parameter("reachability_service", "/kinematics/test_pose", ParameterDescriptor(
+            description="TestPose service for the path of every pass; '' = no check", read_only=True))
         self.declare_parameter("lookahead_s", 0.5, ParameterDescriptor(
             description="path samples are sent this far ahead of their stamps (s), so that the "
                         "plant applies them on time whatever the latency of the chain"))
@@ -65,6 +72,9 @@ class PassPlannerNode(Node):
         self.answered: set[tuple[str, int]] = set()
         self.worker = ThreadPoolExecutor(max_workers=1)
         self.planning = None  # (command, future)
+        self.checking = None  # (command, plan, path, width, TestPose future or None, since)
+        service = self.get_parameter("reachability_service").value
+        self.reach_client = self.create_client(TestPose, service) if service else None
         self.path = None  # (start time, ToolPath, next sample index)
 
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
@@ -97,7 +107,7 @@ class PassPlannerNode(Node):
         return c
 
     def _try_plan(self) -> None:
-        if self.pending is None or self.planning is not None:
+        if self.pending is None or self.planning is not None or self.checking is not None:
             return
         contour = self._contour_for(self.pending)
         if contour is None:
@@ -131,6 +141,8 @@ class PassPlannerNode(Node):
                 command, self.pending = self.pending, None
                 latest = "none" if self.contour is None else f"the one after {self.contour.pass_index} passes"
                 self._refuse(command, f"no contour for pass {command.pass_index} (latest: {latest})", "no_contour")
+        if self.checking is not None:
+            self._check_reach()
         if self.planning is None or not self.planning[1].done():
             return
         command, future = self.planning
@@ -139,6 +151,35 @@ class PassPlannerNode(Node):
             plan, path, width = future.result()
         except (PlanningError, ValueError, FloatingPointError) as exc:
             self._refuse(command, str(exc), "unplannable")
+        else:
+            if self.reach_client is None:
+                self._publish(command, plan, path, width)
+            else:
+                self.checking = (command, plan, path, width, None, time.monotonic())
+                self._check_reach()
+        self._try_plan()
+
+    def _check_reach(self) -> None:
+        command, plan, path, width, future, since = self.checking
+        if future is None:
+            if self.reach_client.service_is_ready():
+                roll, pitch, yaw = (float(a) for a in np.radians(self.config.frame.orientation_rpy_deg))
+                request = TestPose.Request(poses=[
+                    ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
+                    for x, y, z in _checked_positions(path)])
+                self.checking = (command, plan, path, width, self.reach_client.call_async(request), since)
+            elif time.monotonic() - since > self.get_parameter("contour_wait_s").value:
+                self.checking = None
+                self._refuse(command, f"reachability service {self.reach_client.srv_name} unavailable", "unchecked")
+            return
+        if not future.done():
+            return
+        self.checking = None
+        index = future.result().first_unreachable_index
+        if index >= 0:
+            x, y, z = _checked_positions(path)[index]
+            self._refuse(command, f"path pose ({x:.1f}, {y:.1f}, {z:.1f}) mm (machine frame) is out of the "
+                                  "machine's reach", "unreachable")
         else:
             self._publish(command, plan, path, width)
         self._try_plan()
@@ -204,6 +245,11 @@ class PassPlannerNode(Node):
     def destroy_node(self):
         self.worker.shutdown(wait=False, cancel_futures=True)
         return super().destroy_node()
+
+
+def _checked_positions(path) -> np.ndarray:
+    """The path positions TestPose checks (mm): one sample in ten, and the last."""
+    return np.vstack([path.positions_mm[::10], path.positions_mm[-1:]])
 
 
 def _key(command: PassCommand) -> tuple[str, int]:

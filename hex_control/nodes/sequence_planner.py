@@ -34,8 +34,8 @@ from rclpy.node import Node
 from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config, parse_planner_config
-from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, GrindingJob, JobGoal, new_job_id,
-                                      read_goal, unfinished_logs)
+from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, GrindingJob, JobGoal,
+                                      new_job_id, read_goal, unfinished_logs)
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
@@ -44,7 +44,7 @@ from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 
 REASONS = {DONE: GrindBead.Result.DONE, QUIT: GrindBead.Result.QUIT, CANCELLED: GrindBead.Result.CANCELLED,
-           ABORTED: GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
+           ABORTED: GrindBead.Result.ABORTED, REJECTED: GrindBead.Result.REJECTED}
 def goal_from_message(goal) -> JobGoal:
     """Validate a GrindBead goal into a JobGoal; ValueError with the reason otherwise."""
     contour = goal.bead
@@ -221,7 +221,10 @@ class SequencePlannerNode(Node):
             self.diagnostics.count("ignored_results")
             return
         if msg.status == PassResult.REJECTED:  # the pass planner cannot plan it: nothing was ground
-            self.job.end(ABORTED, f"pass {msg.pass_index} rejected: {msg.reason}")
+            # the first pass refused (e.g. the bead is out of the machine's reach): the goal is
+            # what cannot be done; later: the job cannot go on
+            reason = REJECTED if msg.pass_index == 0 else ABORTED
+            self.job.end(reason, f"pass {msg.pass_index} rejected: {msg.reason}")
             self._finish()
             return
         values = (msg.measured_cut_depth_mm, msg.duration_s)

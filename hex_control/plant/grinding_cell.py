@@ -73,8 +73,8 @@ class _MachineDrivenStepper(PassStepper):
 
     def advance(self, duration_s: float, start_mm, end_mm, table_mm: float, step_mm: float):
         """Move the centre from ``start_mm`` to ``end_mm`` ((x, H), bead frame) in
-        ``duration_s`` with the table at ``table_mm``; returns the (force N, power W,
-        removal mm^3/s, in contact) samples at the sub-step starts."""
+        ``duration_s`` with the table at ``table_mm``; returns the (force N, power W, in
+        contact) samples at the sub-step starts."""
         (x0, h0), (x1, h1) = start_mm, end_mm
         substeps = max(1, math.ceil(abs(x1 - x0) / step_mm))
         self.table_mm, self.dt = table_mm, duration_s / substeps
@@ -87,8 +87,7 @@ class _MachineDrivenStepper(PassStepper):
             now = self.evaluate()
             _, state, _, patch = now
             force = max(state.force_n, 0.0) if patch.length_mm > 0 else 0.0
-            samples.append((force, self.model.power_w(force), self.model.removal_rate_mm3_s(force),
-                            patch.length_mm > 0))
+            samples.append((force, self.model.power_w(force), patch.length_mm > 0))
             self.step(now)
         return samples
 
@@ -112,7 +111,6 @@ class PassMeasurement:
     peak_power_w: float
     burn_detected: bool
     stall_detected: bool
-    true_specific_energy_j_mm3: float  # the coefficient the cell drew for the pass (for tests and reports)
 
 
 class GrindingCell:
@@ -174,7 +172,7 @@ class GrindingCell:
     def _accumulate(self, samples, dt: float, feed_mm_s: float) -> None:
         c, k2 = self.current, self.model.process.wasted_power_w
         window = c["window"]
-        for force, power, _, touching in samples:
+        for force, power, touching in samples:
             window.append((force, feed_mm_s))
             if len(window) * dt > self.burn_window_s:
                 window.pop(0)
@@ -207,4 +205,4 @@ class GrindingCell:
             contact, c["force_s"] / contact if contact else 0.0, c["peak_force"],
             c["feed_s"] / contact if contact else 0.0, c["energy"],
             c["energy"] / removed if removed > 1e-9 else math.nan, c["peak_power"], c["burn"],
-            c["peak_power"] > process.power_fraction * process.max_power_w, process.specific_energy_j_mm3)
+            c["peak_power"] > process.power_fraction * process.max_power_w)
