@@ -22,6 +22,7 @@ def ros_env() -> dict:
     env["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     env["PYTHONUNBUFFERED"] = "1"
+    env["PYTHONFAULTHANDLER"] = "1"  # a crashing node leaves its threads' tracebacks in its log
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
     return env
 

@@ -65,7 +65,7 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     wrenches = ros.collect(WrenchStamped, "/plant/wrench", KEEP, publishers=1)
     commands = ros.node("strut_source").create_publisher(JointState, "/plant/strut_command", 10)
     wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")
-    names = [f"strut_{i}" for i in range(1, 7)]
+    names = [f"strut_{i}" for i in range(6)]
     commands.publish(JointState(name=names, position=[0.6] * 6))
     wait_until(lambda: states, 10.0, what="strut states")
     commands.publish(JointState(name=names, position=[0.61] * 6))

@@ -2,7 +2,6 @@
 
 import math
 import signal
-import time
 
 import numpy as np
 import pytest
@@ -12,6 +11,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.stochastic import CutDepthModel
+from hex_control.nodes.action_probe import ResponseProbe
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import PassCommand, PassResult
 from ros_harness import wait_until
@@ -58,11 +58,7 @@ def planner(spawn, tmp_path):
 
 def send(ros, goal, feedback=None):
     client = ActionClient(ros.node("grind_client"), GrindBead, "/sequence_planner/grind_bead")
-    assert client.wait_for_server(timeout_sec=20.0)
-    # wait_for_server sees the server's request readers; its response writers may not have
-    # matched this client yet (a known DDS discovery race that loses the first response),
-    # and the client cannot observe that: give discovery a moment before the one goal
-    time.sleep(1.0)
+    wait_until(ResponseProbe(client), 30.0, what="the action server to answer")
     future = client.send_goal_async(goal, feedback_callback=feedback)
     wait_until(future.done, 20.0, what="goal acceptance")
     return future.result()

@@ -25,6 +25,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from hex_control.grinding.job_report import JobRecord
+from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
 from hex_control_msgs.action import GrindBead
@@ -152,9 +153,7 @@ class JobSession:
     def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
         record, observer = self.record, self.observer
         self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
-        self.spin_until(lambda: observer.client.wait_for_server(timeout_sec=0.05), 60.0,
-                        "the sequence planner's action server")
-        time.sleep(1.0)  # let the action's topics match before the goal (rclpy Kilted)
+        self.spin_until(ResponseProbe(observer.client), 60.0, "the sequence planner's action server to answer")
         bead, width = record.contours[0]
         goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
                               bead_width_mm=float(width))

@@ -244,9 +244,11 @@ class WorkspaceService(Node):
         return self.core.workspace(request, response, self.get_logger())
 
 
-def _spin_until_shutdown(executor) -> None:
+def _spin_until_stopped(executor, stop: threading.Event) -> None:
+    """Spin in short waits, so the main thread can stop this one before it tears down."""
     try:
-        executor.spin()
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
     except ExternalShutdownException:
         pass
 
@@ -257,7 +259,7 @@ def main(args=None) -> int:
     import rclpy
 
     rclpy.init(args=sys.argv if args is None else args)
-    nodes, executors, worker = [], [], None
+    nodes, executors, worker, stop = [], [], None, threading.Event()
     try:
         node = KinematicsNode()
         companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
@@ -266,16 +268,19 @@ def main(args=None) -> int:
         executors = [SingleThreadedExecutor(), SingleThreadedExecutor()]
         for executor, each in zip(executors, nodes):
             executor.add_node(each)
-        worker = threading.Thread(target=_spin_until_shutdown, args=(executors[1],), daemon=True)
+        worker = threading.Thread(target=_spin_until_stopped, args=(executors[1], stop), daemon=True)
         worker.start()
         executors[0].spin()
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # the worker leaves its wait set before any executor or node is torn down: shutting
+        # down an executor another thread is waiting in can crash the process
+        stop.set()
+        if worker is not None:
+            worker.join(timeout=10.0)
         for executor in executors:
             executor.shutdown(timeout_sec=1.0)
-        if worker is not None:  # a thread still in the wait set at exit aborts the process
-            worker.join(timeout=10.0)
         for each in nodes:
             each.destroy_node()
         rclpy.try_shutdown()
