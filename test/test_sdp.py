@@ -183,6 +183,16 @@ def test_lookup_and_save_load(tmp_path):
         POLICY.lookup(math.nan, 0.1)
 
 
+def test_a_grid_grows_at_its_own_steps_to_hold_the_start_state():
+    grid = PlannerGrid(material_min_mm=-1.0, material_max_mm=2.0, material_states=301, horizon_s=120.0)
+    assert grid.covering(60.0, 1.5) is grid
+    grown = grid.covering(243.0, 3.456)
+    assert grown.horizon_s == 244.0 and grown.time_step_s == grid.time_step_s
+    assert grown.material_step_mm == pytest.approx(grid.material_step_mm, rel=1e-12)
+    assert grown.material_max_mm == pytest.approx(3.47) and grown.material_states == 448
+    np.testing.assert_allclose(grown.material_mm[:301], grid.material_mm, atol=1e-12)  # same nodes, more of them
+
+
 def test_bad_configurations_are_refused():
     with pytest.raises(ValueError):
         PlannerGrid(material_min_mm=0.5)

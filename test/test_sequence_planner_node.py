@@ -1,5 +1,6 @@
 """Node sequence_planner over real processes: GrindBead action, bad goals, cancel, restart."""
 
+import dataclasses
 import math
 import signal
 
@@ -84,6 +85,30 @@ def test_a_job_runs_to_completion_over_the_action(ros, planner):
     assert [index for _, index in executor.answered] == list(range(result.passes))
     assert len(feedback) == result.passes and math.isfinite(result.total_charge)
     assert abs(result.material_remaining_mm) < 0.3
+
+
+def test_a_bead_too_high_for_the_deadline_ends_by_the_policy(ros, planner):
+    """3.5 mm of bead in 60 s: beyond the configured material grid (2 mm) and beyond what
+    the deadline allows. The planner grows the grid to hold the job, the policy grinds hard
+    and quits with material left, and its promised penalty is that of the true start state
+    (the clamped grid would have promised C(2 mm) - about 2 units less)."""
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.sdp import solve
+    from hex_control.config import config_file
+
+    planner()
+    executor = PassExecutor(ros)
+    feedback = []
+    handle = send(ros, GrindBead.Goal(job_id="too_high", bead_height_mm=3.5, bead_width_mm=12.5,
+                                      bead_length_mm=300.0, deadline_s=60.0), feedback.append)
+    result = result_of(handle).result
+    assert result.reason == GrindBead.Result.QUIT and result.material_remaining_mm > 1.5
+    assert result.passes == len(executor.answered) >= 1 and result.time_remaining_s >= 0.0
+    process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
+    process = dataclasses.replace(process, bead_width_mm=12.5, bead_length_mm=300.0)
+    promised = solve(process, charges, grid.covering(60.0, 3.5), cut_model).lookup(60.0, 3.5)["expected_penalty"]
+    clamped = solve(process, charges, grid, cut_model).lookup(60.0, 3.5)["expected_penalty"]
+    assert feedback[0].feedback.expected_penalty == pytest.approx(promised, rel=1e-9) and promised > clamped + 1.0
 
 
 @pytest.mark.parametrize("goal, reason", [

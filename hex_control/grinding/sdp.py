@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -55,6 +55,18 @@ class PlannerGrid:
             raise ValueError("need >= 3 material states, >= 1 force, >= 1 feed")
         if not (self.time_step_s > 0 and self.horizon_s >= self.time_step_s and self.late_horizon_s >= 0):
             raise ValueError("need time_step_s > 0, horizon_s >= time_step_s, late_horizon_s >= 0")
+
+    def covering(self, time_remaining_s: float, material_mm: float) -> PlannerGrid:
+        """This grid, grown at its own steps until it holds the state (t, X) with a stage
+        and a material step to spare: a job beyond the grid is planned, not clamped."""
+        grid = self
+        if time_remaining_s > self.horizon_s:
+            grid = replace(grid, horizon_s=math.ceil(time_remaining_s / self.time_step_s) * self.time_step_s)
+        if material_mm + self.material_step_mm > self.material_max_mm:
+            extra = math.ceil((material_mm - self.material_max_mm) / self.material_step_mm) + 1
+            grid = replace(grid, material_max_mm=self.material_max_mm + extra * self.material_step_mm,
+                           material_states=self.material_states + extra)
+        return grid
 
     @property
     def material_mm(self) -> np.ndarray:

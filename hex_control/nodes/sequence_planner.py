@@ -102,11 +102,8 @@ class SequencePlannerNode(Node):
     def _policy_for(self, goal: JobGoal, process=None):
         process = dataclasses.replace(process or self.process, bead_width_mm=goal.bead_width_mm,
                                       bead_length_mm=goal.bead_length_mm)
-        grid = self.grid
-        if goal.deadline_s > grid.horizon_s:
-            grid = dataclasses.replace(grid, horizon_s=math.ceil(goal.deadline_s / grid.time_step_s) * grid.time_step_s)
         start = time.perf_counter()
-        policy = solve(process, self.charges, grid, self.cut_model)
+        policy = solve(process, self.charges, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model)
         self.diagnostics.set("last_solve_ms", f"{1000 * (time.perf_counter() - start):.1f}")
         self.diagnostics.count("solves")
         return process, policy
