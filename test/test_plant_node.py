@@ -85,3 +85,49 @@ def test_watchdog_retracts_on_sim_time_when_the_setpoint_ends(ros, spawn):
     force_at = {round(s, 3): f for s, f in run}
     assert force_at[0.6] == pytest.approx(20.0, abs=3.0)
     assert all(f == 0.0 for s, f in run if s >= 0.7)
+
+
+def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn):
+    """machine_file pru3 in both nodes: a tool setpoint (z 215 mm, alpha 0.08, beta -0.05 rad)
+    becomes slider commands, and the head's dynamics under its drives carry the sliders
+    there; a command the head cannot reach is refused and counted."""
+    import numpy as np
+    from diagnostic_msgs.msg import DiagnosticArray
+    from geometry_msgs.msg import PoseStamped
+    from scipy.spatial.transform import Rotation
+
+    from hex_control.config import config_file
+    from hex_control.kinematics.pru3 import Pru3Geometry, inverse_kinematics
+
+    machine = ["-p", f"machine_file:={config_file('machines/pru3.yaml')}"]
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", *machine])
+    spawn(["hex-kinematics", "--ros-args", "-p", "use_sim_time:=true", *machine])
+    states = ros.collect(JointState, "/plant/strut_states", KEEP)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    node = ros.node("pru3_source")
+    setpoints = node.create_publisher(PoseStamped, "/motion/setpoint", 10)
+    commands = node.create_publisher(JointState, "/plant/strut_command", 10)
+    wait_until(lambda: setpoints.get_subscription_count() >= 1 and commands.get_subscription_count() >= 1, 15.0,
+               what="the kinematics node and the plant")
+    target = inverse_kinematics(Pru3Geometry(), np.array([215.0, 0.08, -0.05])).lengths_mm[0] / 1000.0
+    setpoint = PoseStamped()
+    setpoint.pose.position.z = 0.215
+    (setpoint.pose.orientation.x, setpoint.pose.orientation.y, setpoint.pose.orientation.z,
+     setpoint.pose.orientation.w) = Rotation.from_euler("xyz", [0.08, -0.05, 0.0]).as_quat()
+
+    def settled():  # setpoints are a stream: keep sending while the graph finishes matching
+        setpoints.publish(setpoint)
+        return states and np.abs(np.array(states[-1].position) - target).max() < 1e-9
+    wait_until(settled, 15.0, interval_s=0.05, what="the sliders to settle on the setpoint")
+    assert list(states[-1].name) == ["strut_0", "strut_1", "strut_2"]
+    commands.publish(JointState(name=["strut_0", "strut_1", "strut_2"], position=[0.0, 0.1, 0.1]))
+
+    def plant_rejections():
+        for array in reversed(diagnostics):
+            for status in array.status:
+                if status.name == "/plant":
+                    return {v.key: v.value for v in status.values}.get("rejected_strut_command")
+        return None
+    wait_until(lambda: plant_rejections() == "1", 5.0, what="the refused command to be counted")
+    time.sleep(0.2)
+    assert np.abs(np.array(states[-1].position) - target).max() < 1e-9  # still where it was

@@ -29,6 +29,11 @@ of the struts puts the disk (``machine_file``, bead frame and nominal process fr
 force trajectories; after each (machine settled) the scanner publishes the contour and the
 pass result (:mod:`hex_control.plant.pass_monitor`).
 
+The machine: ``machine_file`` of a Stewart platform drives six generic strut servos
+(:mod:`hex_control.plant.machine`); a 3-PRU file drives the head's rigid-body dynamics
+(seed 001) under its slider drives, ``pru3_drive`` ``lspd`` or ``ctc``
+(:mod:`hex_control.plant.pru3_machine`). Both carry the structural mode.
+
 Topics:
     /clock                      rosgraph_msgs/Clock          out  sim time
     /plant/wrench               geometry_msgs/WrenchStamped  out  sensor force, force.z (N)
@@ -67,7 +72,8 @@ from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.contour import Contour, weld_bead
 from hex_control.grinding.variation import ProcessVariation
-from hex_control.kinematics import load_machine
+from hex_control.kinematics import Pru3Geometry, load_machine
+from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_to_message
 from hex_control.nodes.runtime import run_node
@@ -76,6 +82,7 @@ from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
+from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -101,7 +108,8 @@ class PlantNode(Node):
         for name, default in (("mode", "lockstep"), ("control_period_s", 0.005), ("internal_step_s", 0.001),
                               ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
                               ("end_time_s", 0.0), ("report_file", ""),
-                              ("table_start_mm", -1.0), ("strut_names", [""]), *CELL_PARAMETERS,
+                              ("table_start_mm", -1.0), ("strut_names", [""]), ("pru3_drive", "lspd"),
+                              *CELL_PARAMETERS,
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
                               *((n, getattr(machine_defaults, n)) for n in MACHINE_PARAMETERS)):
             self.declare_parameter(name, default, read_only)
@@ -111,15 +119,20 @@ class PlantNode(Node):
             raise ValueError(f"mode must be lockstep or realtime, got {self.mode!r}")
         self.period_s = p("control_period_s")
         machine_geometry, _ = load_machine(p("machine_file"))
-        struts = 3 if type(machine_geometry).__name__ == "Pru3Geometry" else 6
+        is_pru3 = isinstance(machine_geometry, Pru3Geometry)
+        struts = 3 if is_pru3 else 6
         # the kinematics node's names for the same machine, unless told otherwise
         self.strut_names = [n for n in p("strut_names") if n] or [f"strut_{i}" for i in range(struts)]
+        if len(self.strut_names) != struts:
+            raise ValueError(f"strut_names: the machine has {struts} struts")
         table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
-        machine = MachineParameters(struts=len(self.strut_names), participation=1.0 / len(self.strut_names),
-                                    **{n: p(n) for n in MACHINE_PARAMETERS})
+        machine = MachineParameters(struts=struts, participation=1.0 / struts, **{n: p(n) for n in MACHINE_PARAMETERS})
         steps = round(self.period_s / p("internal_step_s"))
         if steps < 1 or abs(steps * p("internal_step_s") - self.period_s) > 1e-9:
             raise ValueError("control_period_s must be a whole number of internal_step_s")
+        if is_pru3:
+            machine = Pru3Machine(machine_geometry, Pru3Inertia(), machine, p("internal_step_s"), p("pru3_drive"),
+                                  refresh_s=self.period_s)
         cell, locator, self.monitor = None, None, None
         if p("grinding"):
             cell, locator = self._cell(machine_geometry)
@@ -208,6 +221,8 @@ class PlantNode(Node):
             lengths = [positions[name] for name in self.strut_names]
             if not all(math.isfinite(v) and abs(v) < 100.0 for v in lengths):
                 raise ValueError(f"strut lengths must be finite and under 100 m, got {lengths}")
+            if isinstance(self.sim.machine, Pru3Machine):
+                self.sim.machine.check_command(lengths)
         except (KeyError, ValueError) as error:
             self.diagnostics.count("rejected_strut_command")
             self.get_logger().warning(f"strut command rejected: {error}", throttle_duration_sec=1.0)

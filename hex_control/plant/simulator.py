@@ -16,6 +16,7 @@ import numpy as np
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.machine import Machine, MachineParameters
+from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.plant.tool_locator import ToolLocator
 
 
@@ -34,7 +35,7 @@ class PlantSnapshot:
 
 class PlantSimulator:
     def __init__(self, table: ForceTableParameters = ForceTableParameters(),
-                 machine: MachineParameters = MachineParameters(), step_s: float = 1e-3, seed: int = 0,
+                 machine: MachineParameters | Machine | Pru3Machine = MachineParameters(), step_s: float = 1e-3, seed: int = 0,
                  table_start_mm: float = -1.0, cell: GrindingCell | None = None,
                  locator: ToolLocator | None = None):
         if (cell is None) != (locator is None):
@@ -42,7 +43,10 @@ class PlantSimulator:
         self.step_s = step_s
         self.table = ForceTable(table, step_s=step_s, seed=seed)
         self.table.reset(table_start_mm)
-        self.machine = Machine(machine, step_s=step_s)
+        # parameters: the generic strut servos; a built machine (e.g. the 3-PRU head) as is
+        self.machine = Machine(machine, step_s=step_s) if isinstance(machine, MachineParameters) else machine
+        if self.machine.step_s != step_s:
+            raise ValueError("the machine must step at the plant's internal step")
         self._machine_ready = False
         self.force_command_mm = table_start_mm
         self.strut_commands_m = None
