@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+MACHINES = {"hexapod": "machines/nist_ingersoll.yaml", "pru3": "machines/pru3_feed.yaml"}  # hexctl demo --machine
+
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hexctl", description=__doc__)
@@ -20,6 +22,8 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--bead-length", type=float, default=300.0, help="bead length (mm)")
     demo.add_argument("--bead-height", type=float, default=1.0, help="bead height (mm)")
     demo.add_argument("--dulling", type=float, default=0.0, help="K1 growth per pass (a disk that dulls)")
+    demo.add_argument("--machine", choices=sorted(MACHINES), default="hexapod",
+                      help="the NIST-like hexapod, or the 3-PRU head on a feed stage")
     demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
                       "another host, e.g. 'ip netns exec hexA' (scripts/two_hosts.sh)")
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
@@ -296,7 +300,7 @@ def main(argv=None) -> int:
             return run_demo(args.output, args.deadline, args.seed, args.jobs,
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
                             args.bead_length, args.bead_height, args.dulling,
-                            args.machine_host.split() or None, args.machine_peers)
+                            args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine])
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from hex_control.config import config_file
 from hex_control.nodes.grind_job import JobSession
 
 BEAD = {"bead_length_mm": 120.0, "bead_height_mm": 0.8}
@@ -37,10 +38,13 @@ def assert_consistent(record, outcome):
     assert outcome["material_remaining_mm"] == pytest.approx(x, abs=1e-9)
 
 
-def test_a_job_ends_as_the_policy_intends(ros_env, tmp_path):
-    """Without pass-to-pass variation the plant cuts what the tiers above planned."""
+@pytest.mark.parametrize("machine", ["nist_ingersoll", "pru3_feed"])
+def test_a_job_ends_as_the_policy_intends(ros_env, tmp_path, machine):
+    """Without pass-to-pass variation the plant cuts what the tiers above planned -- on
+    the hexapod, and on the 3-PRU head (its dynamics under its drives) on a feed stage."""
     steady = {**BEAD, "specific_energy_cv": 0.0}
-    with JobSession(tmp_path, seed=3, plant_overrides=steady) as session:
+    with JobSession(tmp_path, seed=3, plant_overrides=steady,
+                    machine_file=str(config_file(f"machines/{machine}.yaml"))) as session:
         session.start_job(45.0, RESET_TIME_S)
         outcome = session.wait_for_outcome(400.0)
     record = session.record

@@ -159,3 +159,22 @@ def test_pru3_machine(ros, spawn):
     assert fk.error_code.val == Code.SUCCESS
     assert (fk.pose.z_mm, fk.pose.roll_rad, fk.pose.pitch_rad) == pytest.approx((220.0, 0.1, -0.05), abs=1e-9)
     assert ros.call(workspace, ComputeWorkspace.Request()).error_code.val == Code.UNSUPPORTED_MACHINE
+
+
+def test_pru3_on_a_feed_stage(ros, spawn):
+    """The stage is joint 4 (feed_x): IK gives it, FK takes it, TestPose holds it to its travel."""
+    spawn(["hex-kinematics", "--ros-args", "-r", "__ns:=/feed", "-p",
+           f"machine_file:={config_file('machines/pru3_feed.yaml')}"])
+    node = ros.node("feed_client")
+    inverse = node.create_client(InverseKinematics, "/feed/kinematics/inverse_kinematics")
+    forward = node.create_client(ForwardKinematics, "/feed/kinematics/forward_kinematics")
+    test_pose = node.create_client(TestPose, "/feed/kinematics/test_pose")
+    pose = ToolPose(x_mm=120.0, z_mm=200.0, roll_rad=0.1, pitch_rad=-0.05)
+    ik = ros.call(inverse, InverseKinematics.Request(poses=[pose]))
+    joints = ik.reports[0].strut_lengths_mm
+    assert ik.error_code.val == Code.SUCCESS and ik.reports[0].reachable and len(joints) == 4
+    fk = ros.call(forward, ForwardKinematics.Request(strut_lengths_mm=joints))
+    assert (fk.pose.x_mm, fk.pose.z_mm, fk.pose.roll_rad) == pytest.approx((120.0, 200.0, 0.1), abs=1e-9)
+    far = ros.call(test_pose, TestPose.Request(poses=[pose, ToolPose(x_mm=600.0, z_mm=200.0)]))
+    assert far.error_code.val == Code.UNREACHABLE and far.first_unreachable_index == 1
+    assert far.reports[1].strut_length_margin_mm == pytest.approx(450.0 - 600.0, abs=1.0)

@@ -88,3 +88,28 @@ def test_unreachable_and_bad_inputs():
         inverse_kinematics(PRU3, [220.0, math.nan, 0.0])
     with pytest.raises(ValueError):  # 500 mm between sliders: no rocker of 150 mm spans it
         forward_kinematics(PRU3, [0.0, 500.0, 0.0])
+
+
+def test_on_a_feed_stage_the_tool_reaches_x_with_the_stage():
+    """pru3_feed.yaml: the stage carries x; the head's parasitic x is taken off the stage's
+    command, and the tool locator puts the tool back where the pose asked for."""
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.kinematics import load_machine
+    from hex_control.kinematics.pru3 import feed_positions_mm, tool_positions_mm
+    from hex_control.plant.tool_locator import ToolLocator
+
+    hybrid, document = load_machine(config_file("machines/pru3_feed.yaml"))
+    assert hybrid.feed_stroke_mm == (-250.0, 450.0) and hybrid.joint_names[-1] == "feed_x"
+    assert PRU3.feed_stroke_mm is None and len(PRU3.joint_names) == 3
+    q = np.array([[200.0, 0.1, -0.05], [190.0, -0.2, 0.1]])
+    pose = inverse_kinematics(hybrid, q)
+    x_mm = np.array([37.0, -120.0])
+    feed = feed_positions_mm(x_mm, pose)
+    assert np.all(np.abs(pose.full[:, 0]) > 0.1)  # tilted: the head's x wanders and the stage makes up for it
+    np.testing.assert_allclose(tool_positions_mm(pose, feed)[:, 0], x_mm, atol=1e-12)
+    frame = load_pass_planner_config("pass_planner.yaml", document).frame
+    assert frame.origin_mm == (-75.0, 0.0, 160.0)  # the machine file's bead frame wins
+    locator = ToolLocator(hybrid, frame)
+    joints_m = np.append(pose.lengths_mm[0], feed[0]) / 1000.0
+    along, up = locator.centre_mm(joints_m)
+    assert (along, up) == pytest.approx((37.0 + 75.0, 200.0 - 160.0), abs=1e-6)

@@ -101,3 +101,20 @@ def test_scaled_taylor_exponential_matches_scipy():
 
     block = np.random.default_rng(1).normal(size=(12, 12)) * 20.0
     np.testing.assert_allclose(_exponential(block), expm(block), rtol=1e-9, atol=1e-9 * np.abs(expm(block)).max())
+
+
+def test_on_a_feed_stage_the_fourth_joint_is_the_stage():
+    geometry = Pru3Geometry(feed_stroke_mm=(-250.0, 450.0))
+    machine = Pru3Machine(geometry)
+    assert machine.p.struts == 4
+    sliders = inverse_kinematics(geometry, TILT_Q).lengths_mm[0] / 1000.0
+    command = np.append(sliders, 0.1)
+    machine.check_command(command)
+    with pytest.raises(ValueError, match="feed stage"):
+        machine.check_command(np.append(sliders, 0.5))
+    lengths, deflection = _run(machine, command, 800)
+    np.testing.assert_allclose(lengths[-1], command, atol=1e-9)
+    # the stage's own servo does not drive the mode: the same slider move rings it the same
+    head = Pru3Machine()
+    _, head_deflection = _run(head, sliders, 800)
+    np.testing.assert_allclose(deflection, head_deflection, atol=1e-12)

@@ -74,8 +74,14 @@ def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
                              PathTiming(**path))
 
 
-def load_pass_planner_config(source) -> PassPlannerConfig:
+def load_pass_planner_config(source, machine_document: dict | None = None) -> PassPlannerConfig:
+    """The pass planner's YAML (a path or a name under config/); a machine document (see
+    :func:`hex_control.kinematics.load_machine`) with its own ``bead_frame`` places the bead
+    for that machine."""
     path = Path(source)
     if not path.is_file():
         path = config_file(str(source))
-    return parse_pass_planner_config(yaml.safe_load(path.read_text()) or {})
+    data = yaml.safe_load(path.read_text()) or {}
+    if machine_document and machine_document.get("bead_frame"):
+        data = {**data, "bead_frame": machine_document["bead_frame"]}
+    return parse_pass_planner_config(data)

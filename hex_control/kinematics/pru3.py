@@ -14,6 +14,10 @@ z-component unchanged), the slider height is seed eq. of 2.1.1:
           - sqrt(l^2 - S_ix^2 - S_iy^2),      S_i = P_i - (rail i at height L_i)
 
 FK is Newton-Raphson with the analytic Jacobian (seed 2.1.2, steps 1-4).
+
+The head alone cannot feed along a bead. With ``feed_stroke_mm`` it sits on a linear feed
+stage along the machine's x (a hybrid machine): joint 4 is the stage position u, and the
+tool's x is u plus the head's parasitic x (:func:`feed_positions_mm`, :func:`tool_positions_mm`).
 """
 
 from __future__ import annotations
@@ -42,12 +46,20 @@ class Pru3Geometry:
     rail_angles_rad: tuple = (0.0, 2 * math.pi / 3, 4 * math.pi / 3)
     stroke_mm: tuple = (0.0, 100.0)
     tilt_max_rad: float = math.radians(30.0)
+    feed_stroke_mm: tuple | None = None  # the x feed stage's travel (min, max); None = head alone
 
     def __post_init__(self):
         if not (self.rail_radius_mm > 0 and self.platform_radius_mm > 0 and self.rocker_length_mm > 0):
             raise ValueError("radii and rocker length must be positive")
         if len(self.rail_angles_rad) != 3 or not self.stroke_mm[0] < self.stroke_mm[1]:
             raise ValueError("need three rail angles and stroke (min < max)")
+        if self.feed_stroke_mm is not None and not self.feed_stroke_mm[0] < self.feed_stroke_mm[1]:
+            raise ValueError("feed_stroke_mm needs (min < max)")
+
+    @property
+    def joint_names(self) -> list[str]:
+        """The sliders, then the feed stage if there is one."""
+        return ["strut_0", "strut_1", "strut_2"] + (["feed_x"] if self.feed_stroke_mm is not None else [])
 
     @classmethod
     def from_dict(cls, data: dict) -> Pru3Geometry:
@@ -55,7 +67,8 @@ class Pru3Geometry:
                    float(data.get("rocker_length_mm", 150.0)),
                    tuple(math.radians(a) for a in data.get("rail_angles_deg", (0.0, 120.0, 240.0))),
                    tuple(float(v) for v in data.get("stroke_mm", (0.0, 100.0))),
-                   math.radians(float(data.get("tilt_max_deg", 30.0))))
+                   math.radians(float(data.get("tilt_max_deg", 30.0))),
+                   None if data.get("feed_stroke_mm") is None else tuple(float(v) for v in data["feed_stroke_mm"]))
 
     @classmethod
     def from_yaml(cls, path) -> Pru3Geometry:
@@ -165,6 +178,18 @@ def slider_accelerations(geometry: Pru3Geometry, q, q_dot, q_ddot, step: float =
     jac = velocity_jacobian(geometry, q)
     jac_dot = (velocity_jacobian(geometry, q + step * q_dot) - velocity_jacobian(geometry, q - step * q_dot)) / (2 * step)
     return np.einsum("nij,nj->ni", jac, q_ddot) + np.einsum("nij,nj->ni", jac_dot, q_dot)
+
+
+def feed_positions_mm(x_mm, pose: Pru3Pose) -> np.ndarray:
+    """Feed-stage positions u (N,) that put the tool at machine x_mm: x minus the head's
+    parasitic x."""
+    return np.asarray(x_mm, float) - pose.full[:, 0]
+
+
+def tool_positions_mm(pose: Pru3Pose, feed_mm=0.0) -> np.ndarray:
+    """The platform origin (N, 3) in the machine frame, the feed stage at feed_mm."""
+    feed = np.broadcast_to(np.asarray(feed_mm, float), (len(pose.full),))
+    return pose.full[:, :3] + np.outer(feed, (1.0, 0.0, 0.0))
 
 
 def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0, 0.0, 0.0),

@@ -52,7 +52,7 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
         NodeSpec("input_shaper", "input_shaper", tuple(SIM_TIME)),
         NodeSpec("force_controller", "force_controller", ("--params-file", str(config_file("force_controller.yaml")),
                                                            *SIM_TIME, "-p", "trigger:=measurement")),
-        NodeSpec("pass_planner", "pass_planner", tuple(SIM_TIME)),
+        NodeSpec("pass_planner", "pass_planner", (*SIM_TIME, *machine)),
         NodeSpec("sequence_planner", "sequence_planner", (*SIM_TIME, "-p", f"job_dir:={job_dir}")),
         NodeSpec("load_predictor_force", "load_predictor",
                  ("-r", "__ns:=/load_predictor", "-r", "__node:=force", "--params-file", predictors, *SIM_TIME)),

@@ -24,6 +24,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
+from hex_control.config import config_file
 from hex_control.grinding.job_report import JobRecord
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes
@@ -114,11 +115,10 @@ class JobSession:
     (the fault tests kill and restart nodes in between, through ``graph``)."""
 
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
-                 plant_overrides: dict | None = None, placement: dict | None = None):
+                 plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None):
         self.output = Path(output)
-        self.graph = NodeGraph(graph_nodes(self.output / "jobs", seed, mode, plant_overrides,
-                                           real_time_factor=real_time_factor), self.output / "logs",
-                               placement=placement)
+        self.graph = NodeGraph(graph_nodes(self.output / "jobs", seed, mode, plant_overrides, machine_file,
+                                           real_time_factor), self.output / "logs", placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
@@ -203,9 +203,10 @@ REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
 
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
-            timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None) -> JobRecord:
+            timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
+            machine_file: str | None = None) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped)."""
-    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement) as session:
+    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file) as session:
         session.start_job(deadline_s, reset_time_s)
         if not quiet:
             bead, width = session.record.contours[0]
@@ -220,7 +221,6 @@ def start_policy(record: JobRecord):
     """The policy the sequence planner solved for this goal at the start (same config)."""
     import dataclasses
 
-    from hex_control.config import config_file
     from hex_control.grinding.config import load_planner_config
     from hex_control.grinding.sdp import solve
 
@@ -230,16 +230,14 @@ def start_policy(record: JobRecord):
     if record.goal.get("reset_time_s") is not None:
         changes["reset_time_s"] = record.goal["reset_time_s"]
     process = dataclasses.replace(process, **changes)
-    deadline = record.goal["deadline_s"]
-    if deadline > grid.horizon_s:
-        grid = dataclasses.replace(grid, horizon_s=float(np.ceil(deadline / grid.time_step_s) * grid.time_step_s))
+    grid = grid.covering(record.goal["deadline_s"], record.goal["material_mm"])
     return solve(process, charges, grid, cut_model), charges
 
 
-def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0) -> dict:
+def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
+                         machine_file: str = "machines/nist_ingersoll.yaml") -> dict:
     """t_R measured on the plant's machine model, with the input shaper's default (ZVD at
     the structural mode) and without: what the sequence planner plans with."""
-    from hex_control.config import config_file
     from hex_control.grinding.config import load_pass_planner_config
     from hex_control.kinematics import load_machine
     from hex_control.plant.machine import MachineParameters
@@ -249,8 +247,8 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0) -> dict
     plant = yaml.safe_load(config_file("plant.yaml").read_text())["plant"]["ros__parameters"]
     parameters = MachineParameters(**{k: plant[k] for k in ("servo_frequency_hz", "servo_damping",
                                                               "mode_frequency_hz", "mode_damping")})
-    config = load_pass_planner_config("pass_planner.yaml")
-    machine, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))
+    machine, document = load_machine(config_file(machine_file))
+    config = load_pass_planner_config("pass_planner.yaml", document)
     height = config.model.radius_mm * np.sin(config.model.relaxed_angle_rad) + 1.0
     shaper = design("zvd", parameters.mode_frequency_hz, parameters.mode_damping)
     return {name: measure_reset_time(machine, config.frame, bead_length_mm, feed_mm_s, height, config.path,
@@ -260,7 +258,8 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0) -> dict
 
 def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
              bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
-             machine_host: list[str] | None = None, machine_peers: str = "") -> int:
+             machine_host: list[str] | None = None, machine_peers: str = "",
+             machine_file: str = "machines/nist_ingersoll.yaml") -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. 0 only if every job ended as its policy intended, without burn."""
     import json
@@ -268,7 +267,7 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
     from hex_control.grinding.job_report import job_statistics, write_report
 
     out = Path(output)
-    reset = calibrate_reset_time(bead_length_mm)
+    reset = calibrate_reset_time(bead_length_mm, machine_file=machine_file)
     for name, r in reset.items():
         print(f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
               f"peak deflection {r.peak_deflection_mm:.3f} mm)")
@@ -288,7 +287,8 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
         start = time.monotonic()
         record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
-                         overrides, quiet=jobs > 1, placement=placement)
+                         overrides, quiet=jobs > 1, placement=placement,
+                         machine_file=str(config_file(machine_file)))
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)

@@ -9,7 +9,9 @@ Stream:
 
 Machine from the ``machine_file`` parameter (``config/machines/*.yaml``): ``stewart``
 or ``pru3``. For the 3-PRU a pose means (z, roll = alpha, pitch = beta); its x, y and yaw
-are the mechanism's parasitic motion and are ignored on input, reported by FK.
+are the mechanism's parasitic motion and are ignored on input, reported by FK -- except
+that a head on a feed stage (``feed_stroke_mm``) reaches the pose's x with the stage,
+joint ``feed_x`` after the three sliders.
 
 compute_workspace runs on a companion node with its own executor thread, so a long
 workspace request never holds up the other services or the stream (rclpy's
@@ -60,7 +62,8 @@ class KinematicsCore:
         self.machine = machine
         self.document = document
         self.is_pru3 = isinstance(machine, Pru3Geometry)
-        self.strut_count = 3 if self.is_pru3 else 6
+        self.joint_names = machine.joint_names if self.is_pru3 else [f"strut_{i}" for i in range(6)]
+        self.strut_count = len(self.joint_names)
 
     def reports(self, rows: np.ndarray) -> list[ConstraintReport]:
         if self.is_pru3:
@@ -68,16 +71,25 @@ class KinematicsCore:
             low, high = self.machine.stroke_mm
             lengths = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
             stroke = np.minimum(lengths - low, high - lengths).min(axis=1)
+            reachable = pose.reachable.copy()
+            if self.machine.feed_stroke_mm is not None:  # the feed stage carries x
+                feed = pru3_kinematics.feed_positions_mm(rows[:, 0], pose)
+                low, high = self.machine.feed_stroke_mm
+                stroke = np.minimum(stroke, np.minimum(feed - low, high - feed))
+                reachable &= stroke >= 0
+                lengths = np.column_stack([pose.lengths_mm, feed])
+            else:
+                lengths = pose.lengths_mm
             tilt = self.machine.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
             out = []
             for k in range(len(rows)):
-                report = ConstraintReport(reachable=bool(pose.reachable[k]),
+                report = ConstraintReport(reachable=bool(reachable[k]),
                                           strut_lengths_ok=bool(stroke[k] >= 0), platform_joints_ok=bool(tilt[k] >= 0),
                                           base_joints_ok=True, strut_distances_ok=True,
                                           strut_length_margin_mm=float(stroke[k]) if math.isfinite(stroke[k]) else -1e9,
                                           platform_joint_margin_rad=float(tilt[k]),
                                           base_joint_margin_rad=math.inf, strut_distance_margin_mm=math.inf)
-                report.strut_lengths_mm = np.nan_to_num(pose.lengths_mm[k], nan=0.0).tolist()
+                report.strut_lengths_mm = np.nan_to_num(lengths[k], nan=0.0).tolist()
                 out.append(report)
             return out
         check = check_poses(self.machine, rows)
@@ -148,7 +160,7 @@ class KinematicsNode(Node):
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
         self._command = self.create_publisher(JointState, "/plant/strut_command", 100)
         self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 100)
-        self._names = [f"strut_{i}" for i in range(self.core.strut_count)]
+        self._names = self.core.joint_names
 
     def _fill_reports(self, request, response, service: str) -> bool:
         """Reports for the request's poses into the response; False (and INVALID_INPUT) if refused."""
@@ -188,9 +200,11 @@ class KinematicsNode(Node):
         try:
             if self.core.is_pru3:
                 start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
-                q, used = pru3_kinematics.forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
+                q, used = pru3_kinematics.forward_kinematics(self.core.machine, lengths[:3], start, tolerance,
+                                                             iterations)
                 solved = pru3_kinematics.inverse_kinematics(self.core.machine, q)
-                pose, residual = solved.full[0], float(np.max(np.abs(solved.lengths_mm[0] - lengths)))
+                pose, residual = solved.full[0].copy(), float(np.max(np.abs(solved.lengths_mm[0] - lengths[:3])))
+                pose[:3] = pru3_kinematics.tool_positions_mm(solved, lengths[3:] if len(lengths) > 3 else 0.0)[0]
             else:
                 start = guess if np.any(guess) else None
                 pose, used, residual = forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)

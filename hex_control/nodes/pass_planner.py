@@ -41,6 +41,7 @@ from rclpy.node import Node
 from rclpy.time import Duration
 
 from hex_control.grinding.config import load_pass_planner_config
+from hex_control.kinematics import load_machine
 from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.nodes.diagnostics import Diagnostics
@@ -64,7 +65,11 @@ class PassPlannerNode(Node):
         self.declare_parameter("lookahead_s", 0.5, ParameterDescriptor(
             description="path samples are sent this far ahead of their stamps (s), so that the "
                         "plant applies them on time whatever the latency of the chain"))
-        self.config = load_pass_planner_config(self.get_parameter("config").value)
+        self.declare_parameter("machine_file", "", ParameterDescriptor(
+            description="machine YAML whose bead_frame (if any) places the bead; '' = the config's", read_only=True))
+        machine_file = self.get_parameter("machine_file").value
+        self.config = load_pass_planner_config(self.get_parameter("config").value,
+                                               load_machine(machine_file)[1] if machine_file else None)
         self.diagnostics = Diagnostics(self)
         self.contour: ContourMsg | None = None
         self.pending: PassCommand | None = None

@@ -118,14 +118,15 @@ class PlantNode(Node):
         if self.mode not in ("lockstep", "realtime"):
             raise ValueError(f"mode must be lockstep or realtime, got {self.mode!r}")
         self.period_s = p("control_period_s")
-        machine_geometry, _ = load_machine(p("machine_file"))
+        machine_geometry, machine_document = load_machine(p("machine_file"))
         is_pru3 = isinstance(machine_geometry, Pru3Geometry)
-        struts = 3 if is_pru3 else 6
         # the kinematics node's names for the same machine, unless told otherwise
-        self.strut_names = [n for n in p("strut_names") if n] or [f"strut_{i}" for i in range(struts)]
-        if len(self.strut_names) != struts:
-            raise ValueError(f"strut_names: the machine has {struts} struts")
+        names = machine_geometry.joint_names if is_pru3 else [f"strut_{i}" for i in range(6)]
+        self.strut_names = [n for n in p("strut_names") if n] or names
+        if len(self.strut_names) != len(names):
+            raise ValueError(f"strut_names: the machine has {len(names)} joints")
         table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
+        struts = 3 if is_pru3 else 6  # those that drive the structural mode
         machine = MachineParameters(struts=struts, participation=1.0 / struts, **{n: p(n) for n in MACHINE_PARAMETERS})
         steps = round(self.period_s / p("internal_step_s"))
         if steps < 1 or abs(steps * p("internal_step_s") - self.period_s) > 1e-9:
@@ -135,7 +136,7 @@ class PlantNode(Node):
                                   refresh_s=self.period_s)
         cell, locator, self.monitor = None, None, None
         if p("grinding"):
-            cell, locator = self._cell(machine_geometry)
+            cell, locator = self._cell(machine_geometry, machine_document)
             self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                                        command_timeout_s=p("command_timeout_s"))
         self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator)
@@ -170,9 +171,9 @@ class PlantNode(Node):
         self.create_timer(1.0, self._report)
         self._publish_state()
 
-    def _cell(self, machine_geometry) -> tuple[GrindingCell, ToolLocator]:
+    def _cell(self, machine_geometry, machine_document: dict) -> tuple[GrindingCell, ToolLocator]:
         p = lambda name: self.get_parameter(name).value  # noqa: E731
-        config = load_pass_planner_config(p("pass_planner_config"))
+        config = load_pass_planner_config(p("pass_planner_config"), machine_document)
         if p("bead_file"):
             bead = Contour.from_csv(p("bead_file"))
         else:

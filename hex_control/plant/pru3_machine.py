@@ -20,6 +20,10 @@ exponential) at the internal step. The state itself -- q, q', the mode -- is car
 exactly across refreshes, so holding only delays the configuration dependence by at most
 one period (tested against adaptive integration of the unheld dynamics).
 
+On a feed stage (``feed_stroke_mm``) a fourth joint, the stage, follows its command
+through the generic second-order servo; it is stiff across the bead and does not drive
+the mode.
+
 Units: lengths and commands in m at the interface (as the generic machine), mm inside;
 q = (z mm, alpha rad, beta rad); forces in N; deflection in mm; time in s.
 """
@@ -27,11 +31,12 @@ q = (z mm, alpha rad, beta rad); forces in N; deflection in mm; time in s.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 from hex_control.kinematics.pru3 import Pru3Geometry, forward_kinematics, inverse_kinematics, velocity_jacobian
 from hex_control.kinematics.pru3_dynamics import KG_MM_S2_PER_N, Pru3Inertia, generalized_dynamics
-from hex_control.plant.machine import MachineParameters
+from hex_control.plant.machine import Machine, MachineParameters
 
 HOME_Q = (220.0, 0.0, 0.0)
 DRIVES = ("lspd", "ctc")
@@ -45,7 +50,8 @@ def effective_slider_mass_kg(geometry: Pru3Geometry, inertia: Pru3Inertia, q=HOM
 
 
 class Pru3Machine:
-    """Same interface as :class:`~hex_control.plant.machine.Machine` (three struts)."""
+    """Same interface as :class:`~hex_control.plant.machine.Machine`: three sliders, then
+    the feed stage if the geometry has one. ``parameters`` describe the sliders' servo."""
 
     def __init__(self, geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
                  parameters: MachineParameters = MachineParameters(struts=3, participation=1 / 3),
@@ -58,43 +64,57 @@ class Pru3Machine:
         self.refresh_steps = round(refresh_s / step_s)
         if not (step_s > 0 and self.refresh_steps >= 1 and abs(self.refresh_steps * step_s - refresh_s) < 1e-9):
             raise ValueError("refresh_s must be a whole number (>= 1) of step_s > 0")
-        self.geometry, self.inertia, self.p, self.step_s, self.drive = geometry, inertia, parameters, step_s, drive
+        self.geometry, self.inertia, self.step_s, self.drive = geometry, inertia, step_s, drive
+        self.feed = None if geometry.feed_stroke_mm is None else \
+            Machine(replace(parameters, struts=1, participation=0.0), step_s)
+        self.p = replace(parameters, struts=len(geometry.joint_names))
         self.servo_w = 2 * math.pi * parameters.servo_frequency_hz
         if gains_n_mm is None:
             mass = effective_slider_mass_kg(geometry, inertia) / KG_MM_S2_PER_N  # N s^2/mm
             gains_n_mm = (mass * self.servo_w**2, 2 * parameters.servo_damping * self.servo_w * mass)
         self.kp_n_mm, self.kv_n_s_mm = (float(g) for g in gains_n_mm)
-        self.reset(inverse_kinematics(geometry, HOME_Q).lengths_mm[0] / 1000.0)
+        self.reset(np.append(inverse_kinematics(geometry, HOME_Q).lengths_mm[0] / 1000.0, [0.0] * (self.p.struts - 3)))
 
     def reset(self, lengths_m) -> None:
-        """At rest at these slider positions (m)."""
-        lengths = np.asarray(lengths_m, float).reshape(-1)
-        if lengths.shape != (3,) or not np.all(np.isfinite(lengths)):
-            raise ValueError("need 3 finite slider lengths (m)")
-        self.q, _ = forward_kinematics(self.geometry, lengths * 1000.0, HOME_Q, tolerance_mm=1e-9)
+        """At rest at these joint positions (m)."""
+        lengths = self._joints(lengths_m)
+        if self.feed is not None:
+            self.feed.reset(lengths[3:])
+        self.q, _ = forward_kinematics(self.geometry, lengths[:3] * 1000.0, HOME_Q, tolerance_mm=1e-9)
         self.q_dot = np.zeros(3)
         self.mode = np.zeros(2)  # y (mm), y' (mm/s)
         self.time_s, self._held = 0.0, 0
         self._refresh()
 
+    def _joints(self, values_m) -> np.ndarray:
+        values = np.asarray(values_m, float).reshape(-1)
+        if values.shape != (self.p.struts,) or not np.all(np.isfinite(values)):
+            raise ValueError(f"need {self.p.struts} finite joint positions (m)")
+        return values
+
     def check_command(self, lengths_m) -> None:
-        """Raise ValueError unless these slider positions (m) are in stroke and place the
+        """Raise ValueError unless these joint positions (m) are in stroke and place the
         platform within its tilt limits (the drives' soft limits)."""
-        lengths_mm = np.asarray(lengths_m, float).reshape(-1) * 1000.0
+        joints_mm = self._joints(lengths_m) * 1000.0
+        lengths_mm = joints_mm[:3]
         low, high = self.geometry.stroke_mm
-        if lengths_mm.shape != (3,) or not np.all((lengths_mm >= low) & (lengths_mm <= high)):
-            raise ValueError(f"slider positions must be 3 values within the stroke {low:g}..{high:g} mm")
+        if not np.all((lengths_mm >= low) & (lengths_mm <= high)):
+            raise ValueError(f"slider positions must be within the stroke {low:g}..{high:g} mm")
+        if self.feed is not None and not self.geometry.feed_stroke_mm[0] <= joints_mm[3] <= self.geometry.feed_stroke_mm[1]:
+            raise ValueError(f"the feed stage must stay within {self.geometry.feed_stroke_mm} mm")
         q, _ = forward_kinematics(self.geometry, lengths_mm, self.pose_q, tolerance_mm=1e-6)
         if np.abs(q[1:]).max() > self.geometry.tilt_max_rad:
             raise ValueError(f"slider positions tilt the platform beyond {np.degrees(self.geometry.tilt_max_rad):g} deg")
 
     @property
     def lengths_m(self) -> np.ndarray:
-        return (self._lengths0 + self._jac @ self._dq) / 1000.0
+        sliders = (self._lengths0 + self._jac @ self._dq) / 1000.0
+        return sliders if self.feed is None else np.append(sliders, self.feed.lengths_m)
 
     @property
     def speeds_m_s(self) -> np.ndarray:
-        return self._jac @ self.q_dot / 1000.0
+        sliders = self._jac @ self.q_dot / 1000.0
+        return sliders if self.feed is None else np.append(sliders, self.feed.speeds_m_s)
 
     @property
     def deflection_mm(self) -> float:
@@ -106,9 +126,10 @@ class Pru3Machine:
         return self.q + self._dq
 
     def step(self, commands_m) -> None:
-        commands = np.asarray(commands_m, float).reshape(-1)
-        if commands.shape != (3,) or not np.all(np.isfinite(commands)):
-            raise ValueError("need 3 finite slider commands (m)")
+        commands = self._joints(commands_m)
+        if self.feed is not None:
+            self.feed.step(commands[3:])
+        commands = commands[:3]
         if self._held == self.refresh_steps:
             self.q, self._held = self.q + self._dq, 0
             self._refresh()

@@ -13,7 +13,7 @@ Units: mm, s (strut lengths m inside the machine model).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,6 +22,7 @@ from hex_control.kinematics import Pru3Geometry, StewartGeometry
 from hex_control.kinematics import pru3 as pru3_kinematics
 from hex_control.kinematics.stewart import strut_lengths
 from hex_control.plant.machine import Machine, MachineParameters
+from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.shaping.filter import ShaperFilter
 from hex_control.shaping.shapers import Shaper
 
@@ -36,9 +37,12 @@ class ResetTime:
 
 def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.ndarray:
     if isinstance(machine, Pru3Geometry):
-        # the 3-PRU holds z, alpha, beta: the tool's height drives it (x, y are parasitic)
+        # the 3-PRU holds z, alpha, beta: the tool's height drives it; x is the feed stage's
         q = np.column_stack([positions_mm[:, 2], np.zeros(len(positions_mm)), np.zeros(len(positions_mm))])
-        return pru3_kinematics.inverse_kinematics(machine, q).lengths_mm / 1000.0
+        pose = pru3_kinematics.inverse_kinematics(machine, q)
+        if machine.feed_stroke_mm is None:
+            return pose.lengths_mm / 1000.0
+        return np.column_stack([pose.lengths_mm, pru3_kinematics.feed_positions_mm(positions_mm[:, 0], pose)]) / 1000.0
     poses = np.column_stack([positions_mm, np.tile(orientation_rpy_rad, (len(positions_mm), 1))])
     return strut_lengths(machine, poses) / 1000.0
 
@@ -61,21 +65,26 @@ def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame
     rpy = np.radians(frame.orientation_rpy_deg)
     lengths = _lengths_m(machine, positions, rpy)
     end = lengths[-1]
-    struts = lengths.shape[1]
-    model = Machine(MachineParameters(**{**parameters.__dict__, "struts": struts,
-                                         "participation": 1.0 / struts}), step_s)
+    if isinstance(machine, Pru3Geometry):  # the plant's model of the head: its dynamics
+        model = Pru3Machine(machine, parameters=replace(parameters, struts=3, participation=1 / 3), step_s=step_s,
+                            refresh_s=timing.sample_period_s)
+    else:
+        model = Machine(replace(parameters, struts=lengths.shape[1], participation=1.0 / lengths.shape[1]), step_s)
     model.reset(lengths[0])
     per_sample = round(timing.sample_period_s / step_s)
     for row in lengths:
         for _ in range(per_sample):
             model.step(row)
     path_s = len(lengths) * timing.sample_period_s
-    deflection, last_outside = [], 0.0
+    # a freely decaying mode whose peaks stayed inside the band for two periods stays inside
+    deflection, last_outside, quiet_s = [], 0.0, 2.0 / parameters.mode_frequency_hz
     for k in range(round(max_settle_s / step_s)):
         model.step(end)
         deflection.append(model.deflection_mm)
         if abs(model.deflection_mm) > settle_mm:
             last_outside = (k + 1) * step_s
+        elif (k + 1) * step_s - last_outside > quiet_s:
+            break
     settle = last_outside
     return ResetTime(path_s + settle - length_mm / feed_mm_s, path_s, settle,
                      float(np.max(np.abs(deflection))) if deflection else 0.0)

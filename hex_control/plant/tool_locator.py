@@ -26,10 +26,11 @@ class ToolLocator:
 
     def position_mm(self, lengths_m) -> np.ndarray:
         lengths_mm = np.asarray(lengths_m, float) * 1000.0
-        if self.is_pru3:
-            q, _ = pru3_kinematics.forward_kinematics(self.machine, lengths_mm, self.guess, tolerance_mm=1e-7)
+        if self.is_pru3:  # sliders, then the feed stage if any
+            q, _ = pru3_kinematics.forward_kinematics(self.machine, lengths_mm[:3], self.guess, tolerance_mm=1e-7)
             self.guess = q
-            return pru3_kinematics.inverse_kinematics(self.machine, q).full[0, :3]
+            pose = pru3_kinematics.inverse_kinematics(self.machine, q)
+            return pru3_kinematics.tool_positions_mm(pose, lengths_mm[3] if len(lengths_mm) > 3 else 0.0)[0]
         pose, _, _ = forward_kinematics(self.machine, lengths_mm, self.guess, tolerance_mm=1e-7)
         self.guess = pose
         return pose[:3]
