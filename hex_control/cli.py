@@ -24,6 +24,8 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--dulling", type=float, default=0.0, help="K1 growth per pass (a disk that dulls)")
     demo.add_argument("--machine", choices=sorted(MACHINES), default="hexapod",
                       help="the NIST-like hexapod, or the 3-PRU head on a feed stage")
+    demo.add_argument("--restart-planner-after", type=int, default=None, metavar="K",
+                      help="fault drill: kill the sequence planner after pass K and restart it")
     demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
                       "another host, e.g. 'ip netns exec hexA' (scripts/two_hosts.sh)")
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
@@ -300,7 +302,8 @@ def main(argv=None) -> int:
             return run_demo(args.output, args.deadline, args.seed, args.jobs,
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
                             args.bead_length, args.bead_height, args.dulling,
-                            args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine])
+                            args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine],
+                            args.restart_planner_after)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

@@ -43,8 +43,12 @@ class JobRecord:
                                                              for k, v in self.results[i].items()}}
                   for i in sorted(self.results)]
         start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else math.nan
+        results_in_order = [i for kind, i in self.events if kind == "result"]
         return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
                 "ended_as_intended": self.intended, "passes": passes,
+                # each pass once, in order (a restarted planner must not repeat or skip one)
+                "passes_in_order": results_in_order == list(range(len(results_in_order))),
+                "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
                 "burn": any(r["burn"] for r in self.results.values()),
                 "stall": any(r["stall"] for r in self.results.values())}
 
@@ -131,4 +135,6 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             "expected_penalty_mean": float(expected.mean()),
             "charge_minus_expected_in_standard_errors": float((charges.mean() - expected.mean()) / se)
             if se and se > 0 else math.nan,
-            "jobs_charged": int(np.sum(charges > 0))}
+            "jobs_charged": int(np.sum(charges > 0)),
+            "jobs_with_passes_out_of_order": int(sum(not s.get("passes_in_order", True) for s in summaries)),
+            "planner_restarts": int(sum(s.get("planner_restarts", 0) for s in summaries))}

@@ -22,6 +22,24 @@ from hex_control.config import config_file
 SIM_TIME = ["-p", "use_sim_time:=true"]
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
 MACHINE_SIDE = ("plant", "kinematics", "input_shaper", "force_controller")
+#: (topic, publishing node, subscribing node) of the volatile streams a pass runs on: a
+#: sample sent before its edge has matched is lost, so a job starts once all are there
+STREAM_EDGES = (("/motion/setpoint_raw", "pass_planner", "input_shaper"),
+                ("/motion/setpoint", "input_shaper", "kinematics"),
+                ("/plant/strut_command", "kinematics", "plant"),
+                ("/plant/wrench", "plant", "force_controller"),
+                ("/plant/force_axis_command", "force_controller", "plant"))
+
+
+def missing_stream_edges(node) -> list[str]:
+    """The STREAM_EDGES that ``node`` (any node in the graph) does not yet see."""
+    missing = []
+    for topic, publisher, subscriber in STREAM_EDGES:
+        publishers = {info.node_name for info in node.get_publishers_info_by_topic(topic)}
+        subscribers = {info.node_name for info in node.get_subscriptions_info_by_topic(topic)}
+        if publisher not in publishers or subscriber not in subscribers:
+            missing.append(f"{publisher} -> {topic} -> {subscriber}")
+    return missing
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from sensor_msgs.msg import JointState
 from hex_control.config import config_file
 from hex_control.grinding.job_report import JobRecord
 from hex_control.nodes.action_probe import ResponseProbe
-from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes
+from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -153,6 +153,8 @@ class JobSession:
     def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
         record, observer = self.record, self.observer
         self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
+        self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
+                        "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
         self.spin_until(ResponseProbe(observer.client), 60.0, "the sequence planner's action server to answer")
         bead, width = record.contours[0]
         goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
@@ -204,8 +206,10 @@ REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
             timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
-            machine_file: str | None = None) -> JobRecord:
-    """Run one job on a fresh graph; returns what was recorded (the graph is stopped)."""
+            machine_file: str | None = None, restart_planner_after: int | None = None) -> JobRecord:
+    """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
+    ``restart_planner_after`` k: kill the sequence planner (SIGKILL) once pass k has ended
+    and start it again -- it resumes from its job log."""
     with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file) as session:
         session.start_job(deadline_s, reset_time_s)
         if not quiet:
@@ -213,7 +217,17 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
             print(f"job {session.record.goal['job_id']}: bead {bead.length_mm:.0f} mm x {width:g} mm, mean height "
                   f"{session.record.goal['material_mm']:.3f} mm, deadline {deadline_s:g} s")
             print(HEADER)
-        session.wait_for_outcome(timeout_s, None if quiet else print_row)
+
+        def on_pass(index, command, result):
+            if not quiet:
+                print_row(index, command, result)
+            if index == restart_planner_after:
+                session.graph.kill("sequence_planner")
+                session.graph.start("sequence_planner")
+                session.record.events.append(("planner_restart", index))
+                if not quiet:
+                    print("     sequence planner killed and restarted", flush=True)
+        session.wait_for_outcome(timeout_s, on_pass)
     return session.record
 
 
@@ -259,7 +273,7 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
 def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
              bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
              machine_host: list[str] | None = None, machine_peers: str = "",
-             machine_file: str = "machines/nist_ingersoll.yaml") -> int:
+             machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None) -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. 0 only if every job ended as its policy intended, without burn."""
     import json
@@ -288,7 +302,7 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         start = time.monotonic()
         record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
                          overrides, quiet=jobs > 1, placement=placement,
-                         machine_file=str(config_file(machine_file)))
+                         machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after)
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)
