@@ -155,7 +155,7 @@ class Pru3Machine:
             w, z = self.servo_w, self.p.servo_damping  # J^-1 [-w^2 J, -2 zeta w J] = [-w^2, -2 zeta w]
             f = np.hstack([-w**2 * np.eye(3), -2 * z * w * np.eye(3)])
             g = np.linalg.solve(jac, np.hstack([w**2 * np.eye(3), (-w**2 * self._lengths0 - jdq)[:, None]]))
-        else:
+        else:  # M q'' = 1000 J^T tau - h, and the drive's bias term J^-T h / 1000 cancels h
             m_gen, _, _ = generalized_dynamics(self.geometry, self.inertia, q, q_dot)
             drive = KG_MM_S2_PER_N * np.linalg.solve(m_gen[0], jac.T)  # q'' per N of slider force
             f = drive @ np.hstack([-self.kp_n_mm * jac, -self.kv_n_s_mm * jac])
