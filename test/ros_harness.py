@@ -93,11 +93,21 @@ class RosHarness:
         if not client.wait_for_service(timeout_sec=timeout_s):
             raise TimeoutError(f"service {client.srv_name} not available within {timeout_s:g} s")
 
-    def call(self, client, request, timeout_s: float = 10.0):
+    def call(self, client, request, timeout_s: float = 10.0, resend_s: float = 3.0):
+        """The response to ``request``; asked again every ``resend_s`` unanswered (Fast DDS
+        drops a response to a client it has not matched yet -- the services here are
+        idempotent), TimeoutError after ``timeout_s``."""
         self.wait_for_service(client, timeout_s)
-        future = client.call_async(request)
-        wait_until(future.done, timeout_s, what=f"a response from {client.srv_name}")
-        return future.result()
+        end = time.monotonic() + timeout_s
+        while True:
+            future = client.call_async(request)
+            try:
+                wait_until(future.done, min(resend_s, max(end - time.monotonic(), 0.0)))
+                return future.result()
+            except TimeoutError:
+                client.remove_pending_request(future)
+                if time.monotonic() >= end:
+                    raise TimeoutError(f"no response from {client.srv_name} within {timeout_s:g} s") from None
 
     def wait_for_match(self, node, topic: str, publishers: int = 0, subscribers: int = 0,
                        timeout_s: float = 15.0) -> None:

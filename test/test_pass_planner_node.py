@@ -104,3 +104,33 @@ def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, 
     x, y, z = map(float, re.search(r"pose \(([-\d.]+), ([-\d.]+), ([-\d.]+)\) mm", result.reason).groups())
     assert -75.0 <= x <= 60.0 - 75.0 + 90.0 and y == 0.0 and z > 0.0  # on the bead, 2 m above the workspace
     assert outputs["trajectory"] == [] and outputs["path"] == []
+
+
+def test_a_lost_reachability_answer_is_asked_again(ros, spawn):
+    """Fast DDS drops a service response to a client it has not matched yet; a stand-in
+    TestPose server that answers the first request too late (the planner has given up on
+    it) shows the planner asks again and goes on with the second answer."""
+    import time
+
+    from hex_control_msgs.srv import TestPose
+    from ros_harness import RosHarness, run_domain_id
+
+    requests = []
+
+    def test_pose(request, response):
+        requests.append(len(request.poses))
+        if len(requests) == 1:
+            time.sleep(4.0)  # past the planner's 2 s: this answer counts as lost
+        response.first_unreachable_index = -1
+        return response
+    stand_in = RosHarness(run_domain_id())  # its own executor: the sleep holds up nothing else
+    try:
+        stand_in.node("stand_in_kinematics").create_service(TestPose, "/kinematics/test_pose", test_pose)
+        publishers, outputs = start_planner(ros, spawn, "-p", "contour_wait_s:=8.0")
+        publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+        publishers["command"].publish(_command())
+        wait_until(lambda: outputs["trajectory"], 20.0, what="the force trajectory")
+    finally:
+        stand_in.close()
+    assert len(requests) == 2 and requests[0] == requests[1] > 10
+    assert outputs["result"] == []  # not refused

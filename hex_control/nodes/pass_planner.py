@@ -41,15 +41,18 @@ from rclpy.node import Node
 from rclpy.time import Duration
 
 from hex_control.grinding.config import load_pass_planner_config
-from hex_control.kinematics import load_machine
 from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
+from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPose
 from hex_control_msgs.srv import TestPose
+
+RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
+
 
 class PassPlannerNode(Node):
     def __init__(self, **kwargs):
@@ -78,6 +81,7 @@ class PassPlannerNode(Node):
         self.worker = ThreadPoolExecutor(max_workers=1)
         self.planning = None  # (command, future)
         self.checking = None  # (command, plan, path, width, TestPose future or None, since)
+        self.check_sent_at = 0.0  # when the pending TestPose request went out (wall s)
         service = self.get_parameter("reachability_service").value
         self.reach_client = self.create_client(TestPose, service) if service else None
         self.path = None  # (start time, ToolPath, next sample index)
@@ -173,11 +177,21 @@ class PassPlannerNode(Node):
                     ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
                     for x, y, z in _checked_positions(path)])
                 self.checking = (command, plan, path, width, self.reach_client.call_async(request), since)
+                self.check_sent_at = time.monotonic()
             elif time.monotonic() - since > self.get_parameter("contour_wait_s").value:
                 self.checking = None
                 self._refuse(command, f"reachability service {self.reach_client.srv_name} unavailable", "unchecked")
             return
         if not future.done():
+            if time.monotonic() - since > self.get_parameter("contour_wait_s").value:
+                self.reach_client.remove_pending_request(future)
+                self.checking = None
+                self._refuse(command, f"reachability service {self.reach_client.srv_name} did not answer", "unchecked")
+            elif time.monotonic() - self.check_sent_at > RESEND_S:
+                # Fast DDS drops a response to a client it has not matched yet: ask again
+                self.reach_client.remove_pending_request(future)
+                self.checking = (command, plan, path, width, None, since)
+                self.diagnostics.count("reachability_resent")
             return
         self.checking = None
         index = future.result().first_unreachable_index
