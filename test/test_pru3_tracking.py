@@ -1,11 +1,13 @@
 """Contour tracking on the 3-PRU head (seed 001 sections 3, 4.3): the four strategies on
 the seed's test motion, their IAE tables (Tables 1-4) and ITAE gain optimization."""
 
+import math
+
 import numpy as np
 import pytest
 
-from hex_control.control.pru3_tracking import (DEFAULT_GAINS, STRATEGIES, Gains, contour_error, iae_table,
-                                               optimize_gains, track, track_batch)
+from hex_control.control.pru3_tracking import (DEFAULT_GAINS, STRATEGIES, Gains, _itae_or_inf, contour_error,
+                                               iae_table, optimize_gains, track, track_batch)
 
 
 @pytest.fixture(scope="module")
@@ -49,6 +51,15 @@ def test_itae_optimization_improves_on_the_start_and_repeats_with_a_seed():
     best, itae, start = first
     assert itae < 0.5 * start and isinstance(best, Gains)
     assert optimize_gains("ctc", duration_s=0.2, generations=2, population=6, seed=1) == first
+
+
+def test_a_diverging_candidate_raises_and_scores_infinite():
+    """Gains the 2 ms loop cannot hold (derivative gain beyond the sampling's limit) drive a
+    Runge-Kutta stage out of the workspace: a FloatingPointError, ITAE inf to the optimizer."""
+    unstable = Gains(proportional=600.0, derivative=15.0, contour=0.0)
+    with pytest.raises(FloatingPointError):
+        track("lspd", unstable, duration_s=0.2, control_period_s=2e-3)
+    assert _itae_or_inf("lspd", unstable, 0.2, 2e-3) == math.inf
 
 
 def test_unknown_strategy_is_refused():

@@ -119,7 +119,8 @@ def track(strategy: str, gains: Gains | None = None, **options) -> TrackingRun:
 def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0, control_period_s: float = 1e-3,
                 geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia()) -> list[TrackingRun]:
     """Run several (strategy, gains) machines side by side along ``path``: one batched
-    dynamics evaluation serves them all. A machine that leaves the workspace raises."""
+    dynamics evaluation serves them all. A machine that leaves the workspace or diverges
+    raises FloatingPointError."""
     strategies, gains = list(strategies), list(gains)
     unknown = set(strategies) - set(STRATEGIES)
     if unknown or len(strategies) != len(gains) or not strategies:
@@ -163,6 +164,9 @@ def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0,
 
 def _rk4(geometry, inertia, q, q_dot, tau, dt):
     def rates(position, velocity):
+        # an unstable loop's stage can leave the workspace, where the rockers have no pose
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+            raise FloatingPointError("a machine's state diverged")
         return velocity, forward_dynamics(geometry, inertia, position, velocity, tau)
 
     k1 = rates(q, q_dot)
