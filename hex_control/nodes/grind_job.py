@@ -109,6 +109,11 @@ HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'
           f"{'F meas':>7} {'dur s':>6} status")
 
 
+#: wall seconds the plant's clock may stand still during a job before the job is given up:
+#: the plant runs on even without a controller, so a standing clock is a loop nobody answers
+STALL_S = 60.0
+
+
 class JobSession:
     """A fresh graph, an observer in its own rclpy context, and one job on it. Use as a
     context manager; ``start_job`` sends the goal, ``wait_for_outcome`` spins to the end
@@ -176,8 +181,15 @@ class JobSession:
         """Spin until the job's result (the action's, or the planner's latched job_result
         after a restart); ``on_pass(index, command, result)`` for each pass as it ends."""
         record, seen = self.record, set()
+        clock = {"sim_s": None, "since": time.monotonic()}
 
         def finished():
+            sim_s = record.force[-1][0] if record.force else None
+            if sim_s != clock["sim_s"]:
+                clock.update(sim_s=sim_s, since=time.monotonic())
+            elif time.monotonic() - clock["since"] > STALL_S:
+                raise RuntimeError(f"the plant's clock has stood at {sim_s} s for {STALL_S:g} s: nothing answers "
+                                   f"its lock-step loop (see logs/plant.log and logs/force_controller.log)")
             for index in sorted(set(record.results) - seen):
                 if index in record.commands:
                     seen.add(index)
