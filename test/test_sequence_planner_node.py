@@ -151,8 +151,11 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner):
     results = []
     ros.node("result_listener").create_subscription(GrindBead.Result, "/sequence_planner/job_result",
                                                     results.append, LATCHED)
+    durations = {}  # the goal's own reset time must hold after the restart too
+    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: durations.update(
+        {c.pass_index: c.pass_duration_s - 300.0 / c.feed_speed_mm_s}), RESULTS)  # depth 10: keep them all
     send(ros, GrindBead.Goal(job_id="bead3", bead_height_mm=1.9, bead_width_mm=12.5,
-                             bead_length_mm=300.0, deadline_s=120.0))
+                             bead_length_mm=300.0, deadline_s=120.0, process_yaml="reset_time_s: 5.0"))
     wait_until(lambda: len(executor.answered) == 2, 10.0, what="two passes")
     first.process.send_signal(signal.SIGKILL)  # no chance to tidy up
     first.process.wait()
@@ -161,6 +164,7 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner):
     wait_until(lambda: results, 30.0, what="the resumed job's result")
     indices = [index for _, index in executor.answered]
     assert indices == list(range(len(indices))) and results[-1].passes == len(indices) > 2
+    assert sorted(durations) == indices and all(abs(r - 5.0) < 1e-6 for r in durations.values()), durations
 
 
 def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):

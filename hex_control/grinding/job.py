@@ -29,6 +29,9 @@ class JobGoal:
     bead_width_mm: float
     bead_length_mm: float
     deadline_s: float
+    #: the goal's own planner settings over the node's configuration, e.g. {"process":
+    #: {"reset_time_s": 4.2}}: logged with the goal so that a resumed job plans as it began
+    config_overrides: dict = field(default_factory=dict)
 
     def __post_init__(self):
         for name in ("material_mm", "bead_width_mm", "bead_length_mm", "deadline_s"):

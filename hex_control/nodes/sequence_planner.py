@@ -76,7 +76,7 @@ class SequencePlannerNode(Node):
         self.declare_parameter("pass_timeout_s", 300.0, ParameterDescriptor(
             description="wall time to wait for a pass result before aborting the job (s)"))
         self.base_config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
-        self.process, self.charges, self.grid, self.cut_model = load_planner_config(
+        _, self.charges, self.grid, self.cut_model = load_planner_config(
             self.get_parameter("planner_config").value)
         self.job_dir = Path(self.get_parameter("job_dir").value)
         self.diagnostics = Diagnostics(self)
@@ -99,8 +99,8 @@ class SequencePlannerNode(Node):
         self._resume()
 
     # -- jobs ------------------------------------------------------------------------------
-    def _policy_for(self, goal: JobGoal, process=None):
-        process = dataclasses.replace(process or self.process, bead_width_mm=goal.bead_width_mm,
+    def _policy_for(self, goal: JobGoal, process):
+        process = dataclasses.replace(process, bead_width_mm=goal.bead_width_mm,
                                       bead_length_mm=goal.bead_length_mm)
         start = time.perf_counter()
         policy = solve(process, self.charges, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model)
@@ -108,12 +108,19 @@ class SequencePlannerNode(Node):
         self.diagnostics.count("solves")
         return process, policy
 
+    def _configured(self, overrides: dict):
+        """(process, charges) of the node's configuration with a goal's overrides on top."""
+        config = {**self.base_config, **{k: {**self.base_config.get(k, {}), **v} for k, v in overrides.items()}}
+        process, charges, _, _ = parse_planner_config(config)
+        return process, charges
+
     def _resume(self) -> None:
         logs = unfinished_logs(self.job_dir) if self.job_dir.is_dir() else []
         if not logs:
             return
         goal = read_goal(logs[-1])
-        process, policy = self._policy_for(goal)
+        process, self.charges = self._configured(goal.config_overrides)
+        process, policy = self._policy_for(goal, process)
         self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
         self.get_logger().info(f"resumed job {goal.job_id} at pass {self.job.state.passes} "
@@ -126,11 +133,11 @@ class SequencePlannerNode(Node):
             self._reject(goal_handle, f"job {self.job.goal.job_id} is still running")
             return
         try:
-            goal = goal_from_message(goal_handle.request)
-            overrides = {name: yaml.safe_load(text) or {} for name, text in
+            overrides = {name: yaml.safe_load(text) for name, text in
                          (("charges", goal_handle.request.charges_yaml), ("process", goal_handle.request.process_yaml))}
-            config = {**self.base_config, **{k: {**self.base_config.get(k, {}), **v} for k, v in overrides.items() if v}}
-            process, charges, _, _ = parse_planner_config(config)
+            goal = dataclasses.replace(goal_from_message(goal_handle.request),
+                                       config_overrides={k: v for k, v in overrides.items() if v})
+            process, charges = self._configured(goal.config_overrides)
         except (ValueError, TypeError, yaml.YAMLError) as exc:
             self._reject(goal_handle, str(exc))
             return
