@@ -135,6 +135,9 @@ def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: in
         end = time.monotonic() + wait_s  # let subscribers match this writer first
         while publisher.get_subscription_count() == 0 and time.monotonic() < end:
             _spin_for(node, 0.05)
+        if publisher.get_subscription_count():
+            # this writer can see a reader before the reader sees it: samples sent in between are lost
+            _spin_for(node, 0.5)
         sent = 0
         while rclpy.ok() and (times <= 0 or sent < times):
             publisher.publish(msg)
