@@ -115,3 +115,14 @@ def test_bad_series_is_refused():
     with pytest.raises(ValueError, match="finite"):
         identify(np.append(np.ones(50), math.nan))
     assert method_of_moments(np.random.default_rng(0).normal(size=200) * 0 + np.arange(200) % 2) is None
+
+
+@pytest.mark.parametrize("value", [0.0, 12.5, -3e4])
+def test_constant_series_is_refused_with_the_reason(value):
+    # a stuck sensor (or a plant that stands still) repeats one value: lag-1 0/0
+    for estimator in (identify, method_of_moments):
+        with pytest.raises(ValueError, match="constant"):
+            estimator(np.full(100, value))
+    # a real fluctuation of any scale is still accepted
+    tiny = value + 1e-6 * np.random.default_rng(1).normal(size=100)
+    assert math.isfinite(identify(tiny).model.a)

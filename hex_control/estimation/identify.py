@@ -60,6 +60,10 @@ def _check_series(measurements, minimum: int) -> np.ndarray:
         raise ValueError(f"need at least {minimum} samples to identify a, W, V, got {y.size}")
     if not np.all(np.isfinite(y)):
         raise ValueError("the series must be finite")
+    if np.ptp(y) <= 1e-12 * np.max(np.abs(y)):
+        # no fluctuation at all (e.g. a sensor that repeats one value): every lag
+        # autocovariance is 0 and a = gamma_1/gamma_0 is 0/0
+        raise ValueError(f"the series is constant ({y[0]!r} x {y.size}): a, W, V are not identifiable")
     return y
 
 
