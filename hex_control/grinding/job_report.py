@@ -29,6 +29,7 @@ class JobRecord:
     trajectories: dict = field(default_factory=dict)  # pass index -> (grind start s, times s, forces N)
     force: list = field(default_factory=list)  # (t s, measured N)
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
+    strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
 
@@ -102,18 +103,23 @@ def _plot_force(record: JobRecord, path: Path) -> None:
     save(fig, path, dpi=100)
 
 
-def _plot_struts(record: JobRecord, path: Path) -> None:
-    if not record.struts:
-        return
+def strut_figure(record: JobRecord):
+    """Every joint of the machine over the job (mm), labelled with the plant's joint names."""
     struts = np.asarray(record.struts)
     fig, ax = plt.subplots(figsize=(11, 4.5))
-    for k in range(1, struts.shape[1]):
-        ax.plot(struts[:, 0], struts[:, k] * 1000.0, lw=1.0, label=f"strut {k - 1}")
+    names = record.strut_names or [f"strut_{k}" for k in range(struts.shape[1] - 1)]
+    for k, name in enumerate(names, start=1):
+        ax.plot(struts[:, 0], struts[:, k] * 1000.0, lw=1.0, label=name)
     ax.set_xlabel("plant time (s)")
-    ax.set_ylabel("length (mm)")
-    ax.set_title("Strut lengths")
+    ax.set_ylabel("length / position (mm)")
+    ax.set_title("Strut lengths (and the feed stage's position, on the 3-PRU)")
     ax.legend(fontsize=8, ncol=3)
-    save(fig, path, dpi=100)
+    return fig
+
+
+def _plot_struts(record: JobRecord, path: Path) -> None:
+    if record.struts:
+        save(strut_figure(record), path, dpi=100)
 
 
 def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:

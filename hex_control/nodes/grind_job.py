@@ -94,6 +94,8 @@ class JobObserver(Node):
 
     def _on_struts(self, msg: JointState) -> None:
         stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        if not self.record.strut_names:
+            self.record.strut_names = list(msg.name)
         if not self.record.struts or stamp - self.record.struts[-1][0] >= 0.05 - 1e-9:
             self.record.struts.append((stamp, *msg.position))
 
