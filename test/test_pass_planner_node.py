@@ -3,6 +3,7 @@ tool path out; refused commands give a reason and nothing else."""
 
 import math
 import re
+import time
 
 import numpy as np
 import pytest
@@ -10,12 +11,16 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
+import dataclasses
+
 import yaml
 
 from hex_control.config import config_file
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.grinding.pass_plan import plan_forces
 from hex_control.grinding.contour import weld_bead
 from hex_control.nodes.interfaces import RESULTS, contour_to_message
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
 from hex_control_msgs.msg import Contour as ContourMsg
 from ros_harness import wait_until
 
@@ -71,6 +76,34 @@ def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
     z = np.array([p.pose.position.z for p in outputs["path"]])
     assert z[0] == pytest.approx(z.max(), abs=1e-6)  # starts retracted above the bead
     assert np.all(np.isfinite(z))
+
+
+def test_passes_are_planned_with_the_predicted_k1(planner, ros):
+    """A dulling disk: the pass-rate predictor's K1 replaces the config's for the passes
+    planned after it, so the same cut asks for the force the model gives at that K1."""
+    publishers, outputs = planner
+    node = ros.node("k1_source")
+    k1 = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1, timeout_s=20.0)
+    for value in (math.nan, -1.0, 15.0):  # the first two are refused
+        k1.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=value))
+    time.sleep(1.0)
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    publishers["command"].publish(_command())
+    trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
+                            what="a force trajectory")
+    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 5.0, what="status")
+    assert dict((v.key, v.value) for v in status.values)["specific_energy_j_mm3"] == "15.0"
+
+    config = load_pass_planner_config("pass_planner.yaml")
+    forces = {}
+    for value in (config.model.process.specific_energy_j_mm3, 15.0):
+        model = dataclasses.replace(config.model, process=dataclasses.replace(
+            config.model.process, specific_energy_j_mm3=value, bead_width_mm=12.5))
+        forces[value] = plan_forces(BEAD, model, 0.3, 10.0, config.planner, config.control, config.gains,
+                                    config.step_mm, config.compliance).force_n
+    np.testing.assert_allclose(trajectory.normal_force_n, forces[15.0], rtol=1e-9)
+    assert np.mean(forces[15.0]) > 1.3 * np.mean(forces[config.model.process.specific_energy_j_mm3])
 
 
 @pytest.mark.parametrize("command, reason", [

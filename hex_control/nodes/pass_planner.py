@@ -5,6 +5,10 @@ force trajectory and the tool path out (seed 002 ch. 6; library
 Topics:
     /grinding/pass_command     (PassCommand, latched)       in
     /grinding/contour          (Contour, latched)           in   the profile after pass k
+    /load_predictor/pass/prediction (LoadPrediction)        in   K1 (J/mm^3) predicted for the
+                                                                 next pass: the passes planned
+                                                                 after it use it (a dulling disk
+                                                                 needs more force per mm of cut)
     /grinding/force_trajectory (ForceTrajectory, latched)   out  for the force controller
     /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
                                                                  ``lookahead_s`` ahead of
@@ -48,7 +52,7 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPose
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, ToolPose
 from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
@@ -70,6 +74,9 @@ class PassPlannerNode(Node):
                         "plant applies them on time whatever the latency of the chain"))
         self.declare_parameter("machine_file", "", ParameterDescriptor(
             description="machine YAML whose bead_frame (if any) places the bead; '' = the config's", read_only=True))
+        self.declare_parameter("specific_energy_topic", "/load_predictor/pass/prediction", ParameterDescriptor(
+            description="LoadPrediction of K1 (J/mm^3) that replaces the config's; '' = keep the config's",
+            read_only=True))
         machine_file = self.get_parameter("machine_file").value
         self.config = load_pass_planner_config(self.get_parameter("config").value,
                                                load_machine(machine_file)[1] if machine_file else None)
@@ -80,11 +87,12 @@ class PassPlannerNode(Node):
         self.answered: set[tuple[str, int]] = set()
         self.worker = ThreadPoolExecutor(max_workers=1)
         self.planning = None  # (command, future)
-        self.checking = None  # (command, plan, path, width, TestPose future or None, since)
+        self.checking = None  # (command, plan, path, process, TestPose future or None, since)
         self.check_sent_at = 0.0  # when the pending TestPose request went out (wall s)
         service = self.get_parameter("reachability_service").value
         self.reach_client = self.create_client(TestPose, service) if service else None
         self.path = None  # (start time, ToolPath, next sample index)
+        self.specific_energy_j_mm3 = self.config.model.process.specific_energy_j_mm3  # K1 the passes are planned with
 
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
@@ -92,6 +100,8 @@ class PassPlannerNode(Node):
         self.setpoint_pub = self.create_publisher(PoseStamped, "/motion/setpoint_raw", 100)
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
+        if topic := self.get_parameter("specific_energy_topic").value:
+            self.create_subscription(LoadPrediction, topic, self._on_specific_energy, 10)
         self.create_timer(0.02, self._poll)
         self.create_timer(self.config.path.sample_period_s, self._stream)
 
@@ -100,6 +110,13 @@ class PassPlannerNode(Node):
         self.contour = msg
         self.diagnostics.count("contours")
         self._try_plan()
+
+    def _on_specific_energy(self, msg: LoadPrediction) -> None:
+        if not (math.isfinite(msg.prediction) and msg.prediction > 0):
+            self.diagnostics.count("rejected_predictions")
+            return
+        self.specific_energy_j_mm3 = float(msg.prediction)
+        self.diagnostics.count("specific_energy_updates")
 
     def _on_command(self, msg: PassCommand) -> None:
         key = (msg.job_id, msg.pass_index)
@@ -122,10 +139,10 @@ class PassPlannerNode(Node):
         if contour is None:
             return
         command, self.pending = self.pending, None
-        self.planning = (command, self.worker.submit(self._plan, command, contour))
+        self.planning = (command, self.worker.submit(self._plan, command, contour, self.specific_energy_j_mm3))
 
     # -- planning (worker thread: library calls only) ------------------------------------
-    def _plan(self, command: PassCommand, contour_msg: ContourMsg):
+    def _plan(self, command: PassCommand, contour_msg: ContourMsg, specific_energy_j_mm3: float):
         values = (command.cut_depth_mm, command.feed_speed_mm_s)
         if not all(math.isfinite(v) for v in values):
             raise PlanningError(f"non-finite command: cut depth {values[0]!r} mm, feed {values[1]!r} mm/s")
@@ -134,14 +151,14 @@ class PassPlannerNode(Node):
         except ValueError as exc:
             raise PlanningError(f"bad contour: {exc}") from None
         config = self.config
-        model = config.model
+        process = dataclasses.replace(config.model.process, specific_energy_j_mm3=specific_energy_j_mm3)
         if contour_msg.bead_width_mm > 0:
-            model = dataclasses.replace(model, process=dataclasses.replace(
-                model.process, bead_width_mm=contour_msg.bead_width_mm))
+            process = dataclasses.replace(process, bead_width_mm=contour_msg.bead_width_mm)
+        model = dataclasses.replace(config.model, process=process)
         plan = plan_forces(contour, model, command.cut_depth_mm, command.feed_speed_mm_s, config.planner,
                            config.control, config.gains, config.step_mm, config.compliance)
         path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, config.path)
-        return plan, path, model.process.bead_width_mm
+        return plan, path, process
 
     def _poll(self) -> None:
         if self.pending is not None and self.planning is None and self._contour_for(self.pending) is None:
@@ -157,26 +174,26 @@ class PassPlannerNode(Node):
         command, future = self.planning
         self.planning = None
         try:
-            plan, path, width = future.result()
+            plan, path, process = future.result()
         except (PlanningError, ValueError, FloatingPointError) as exc:
             self._refuse(command, str(exc), "unplannable")
         else:
             if self.reach_client is None:
-                self._publish(command, plan, path, width)
+                self._publish(command, plan, path, process)
             else:
-                self.checking = (command, plan, path, width, None, time.monotonic())
+                self.checking = (command, plan, path, process, None, time.monotonic())
                 self._check_reach()
         self._try_plan()
 
     def _check_reach(self) -> None:
-        command, plan, path, width, future, since = self.checking
+        command, plan, path, process, future, since = self.checking
         if future is None:
             if self.reach_client.service_is_ready():
                 roll, pitch, yaw = (float(a) for a in np.radians(self.config.frame.orientation_rpy_deg))
                 request = TestPose.Request(poses=[
                     ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
                     for x, y, z in _checked_positions(path)])
-                self.checking = (command, plan, path, width, self.reach_client.call_async(request), since)
+                self.checking = (command, plan, path, process, self.reach_client.call_async(request), since)
                 self.check_sent_at = time.monotonic()
             elif time.monotonic() - since > self.get_parameter("contour_wait_s").value:
                 self.checking = None
@@ -190,7 +207,7 @@ class PassPlannerNode(Node):
             elif time.monotonic() - self.check_sent_at > RESEND_S:
                 # Fast DDS drops a response to a client it has not matched yet: ask again
                 self.reach_client.remove_pending_request(future)
-                self.checking = (command, plan, path, width, None, since)
+                self.checking = (command, plan, path, process, None, since)
                 self.diagnostics.count("reachability_resent")
             return
         self.checking = None
@@ -200,7 +217,7 @@ class PassPlannerNode(Node):
             self._refuse(command, f"path pose ({x:.1f}, {y:.1f}, {z:.1f}) mm (machine frame) is out of the "
                                   "machine's reach", "unreachable")
         else:
-            self._publish(command, plan, path, width)
+            self._publish(command, plan, path, process)
         self._try_plan()
 
     # -- outputs -------------------------------------------------------------------------
@@ -214,7 +231,7 @@ class PassPlannerNode(Node):
         result.header.stamp = self.get_clock().now().to_msg()
         self.result_pub.publish(result)
 
-    def _publish(self, command: PassCommand, plan, path, width_mm: float) -> None:
+    def _publish(self, command: PassCommand, plan, path, process) -> None:
         self.answered.add(_key(command))
         start = self.get_clock().now() + Duration(seconds=self.get_parameter("start_delay_s").value)
         grind_start = start + Duration(seconds=path.grind_start_s)
@@ -226,14 +243,16 @@ class PassPlannerNode(Node):
                               time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
                               normal_force_n=plan.force_n.tolist(),
                               planned_final_contour=contour_to_message(plan.final, command.job_id,
-                                                                       command.pass_index + 1, width_mm))
+                                                                       command.pass_index + 1,
+                                                                       process.bead_width_mm))
         msg.header.stamp = grind_start.to_msg()
         msg.header.frame_id = "bead"
         self.trajectory_pub.publish(msg)
         self.path = (start, path, 0)
         self.diagnostics.count("planned")
         summary = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
-                   "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size)}
+                   "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size),
+                   "specific_energy_j_mm3": process.specific_energy_j_mm3}
         self._status(command, DiagnosticStatus.WARN if plan.reason else DiagnosticStatus.OK,
                      plan.reason or "planned", summary)
 
