@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 MACHINES = {"hexapod": "machines/nist_ingersoll.yaml", "pru3": "machines/pru3_feed.yaml"}  # hexctl demo --machine
@@ -293,8 +294,15 @@ def _shaper(args) -> int:
     return 0
 
 
+def _exit_on_sigterm(signum, frame):
+    # as SystemExit, so that `with` blocks unwind: `hexctl demo` stops the node processes
+    # it started (they run in sessions of their own) instead of leaving them running
+    raise SystemExit(128 + signum)
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         if args.command == "demo":
             from hex_control.nodes.grind_job import run_demo

@@ -4,13 +4,20 @@
 A short bead and deadline keep each job to about 30 s of simulated time (a minute or two
 of wall time on this 2-core machine: every node is its own Python process)."""
 
+import json
 import math
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from hex_control.config import config_file
 from hex_control.nodes.grind_job import JobSession
+from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
 RESET_TIME_S = 4.2  # the ZVD-shaped t_R of the shipped machine (test_reset_time)
@@ -98,11 +105,48 @@ def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros
     assert_consistent(record, outcome)  # pass 1 was planned from the measured (short) cut
 
 
+def _hexctl_demo(output, *arguments) -> list[str]:
+    return [str(Path(sys.executable).parent / "hexctl"), "demo", "--bead-length", str(BEAD["bead_length_mm"]),
+            "--bead-height", str(BEAD["bead_height_mm"]), "--output", str(output), *arguments]
+
+
 def test_an_impossible_deadline_ends_by_the_policy_not_by_a_timeout(ros_env, tmp_path):
-    with JobSession(tmp_path, seed=6, plant_overrides=BEAD) as session:
-        session.start_job(6.5, RESET_TIME_S)  # shorter than two of the fastest passes
-        outcome = session.wait_for_outcome(200.0)
+    """Through the README's main command, ``hexctl demo``: its exit code, table and report."""
+    run = subprocess.run(_hexctl_demo(tmp_path, "--deadline", "6.5", "--seed", "6"),  # < two fastest passes
+                         env=ros_env, capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stdout + run.stderr  # Quit Now is what the policy intends
+    assert "fastest passes fit in" in run.stdout and "F meas" in run.stdout
+    summary = json.loads((tmp_path / "job.json").read_text())
+    outcome = summary["outcome"]
     assert outcome["reason"] == "quit", outcome
-    assert outcome["passes"] <= 1
+    assert outcome["passes"] <= 1 and len(summary["passes"]) == outcome["passes"]
     assert math.isfinite(outcome["total_charge"]) and outcome["total_charge"] > 0
-    assert_consistent(session.record, outcome)
+    assert summary["ended_as_intended"] and summary["passes_in_order"] and not summary["burn"]
+    for png in ("contours", "force_tracking", "policy_map", "strut_lengths"):
+        assert (tmp_path / f"{png}.png").stat().st_size > 10_000, png
+
+
+def _processes_writing_to(directory: Path) -> list[int]:
+    """Processes whose stdout is a file in ``directory`` (the graph's node logs)."""
+    pids = []
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            if os.readlink(f"/proc/{pid}/fd/1").startswith(f"{directory}/"):
+                pids.append(int(pid))
+        except OSError:
+            continue
+    return pids
+
+
+def test_a_terminated_demo_stops_its_graph(ros_env, tmp_path):
+    """SIGTERM (a CI timeout, a service manager) ends ``hexctl demo`` and its node processes."""
+    demo = subprocess.Popen(_hexctl_demo(tmp_path, "--deadline", "30"), env=ros_env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_until(lambda: len(_processes_writing_to(tmp_path / "logs")) == 8, 120.0, interval_s=0.5,
+                   what="the graph's eight nodes")
+        demo.send_signal(signal.SIGTERM)
+        assert demo.wait(timeout=60) == 128 + signal.SIGTERM
+    finally:
+        demo.kill()
+    assert _processes_writing_to(tmp_path / "logs") == []
