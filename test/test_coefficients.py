@@ -37,3 +37,15 @@ def test_re_solve_only_when_the_estimate_moves():
     assert not update.observe(11.0) and update.process.specific_energy_j_mm3 == 11.0
     with pytest.raises(ValueError):
         update.observe(float("nan"))
+
+
+@pytest.mark.parametrize("estimate, plausible", [(10.0, True), (1.0, True), (100.0, True), (30.0, True),
+                                                 (0.99, False), (101.0, False), (1e300, False), (5e-324, False),
+                                                 (0.0, False), (-10.0, False), (float("inf"), False)])
+def test_an_estimate_beyond_ten_times_the_nominal_k1_is_refused(estimate, plausible):
+    update = PassModelUpdate(GrindingProcess(specific_energy_j_mm3=10.0))
+    assert update.plausible(estimate) is plausible
+    if not plausible:
+        with pytest.raises(ValueError, match="nominal 10"):
+            update.observe(estimate)
+        assert update.process.specific_energy_j_mm3 == 10.0

@@ -85,7 +85,7 @@ def test_passes_are_planned_with_the_predicted_k1(planner, ros):
     node = ros.node("k1_source")
     k1 = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
     ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1, timeout_s=20.0)
-    for value in (math.nan, -1.0, 15.0):  # the first two are refused
+    for value in (math.nan, -1.0, 1e300, 15.0):  # the first three are refused
         k1.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=value))
     time.sleep(1.0)
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))

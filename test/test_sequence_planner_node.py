@@ -3,6 +3,7 @@
 import dataclasses
 import math
 import signal
+import time
 
 import numpy as np
 import pytest
@@ -195,4 +196,7 @@ def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=10.2))  # within 5 %
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=12.0))  # beyond
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=float("nan")))
+    publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=1e3))  # 100x: broken
     wait_until(lambda: solves() == 2, 5.0, what="one re-solve")
+    time.sleep(3.0)  # a re-solve and two diagnostics periods: the refused estimates solved nothing
+    assert solves() == 2

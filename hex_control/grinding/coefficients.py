@@ -56,6 +56,17 @@ def measured_specific_energy(process: GrindingProcess, force_n: float, feed_mm_s
     return float((power - process.wasted_power_w) / removal) if power > process.wasted_power_w else math.inf
 
 
+#: a K1 estimate further than this factor from the nominal one is not a disk that dulled or
+#: sharpened but a broken measurement (a fresh and a glazed disk differ by about 3x)
+PLAUSIBLE_K1_FACTOR = 10.0
+
+
+def plausible_specific_energy(estimate_j_mm3: float, nominal_j_mm3: float) -> bool:
+    """Whether a K1 estimate (J/mm^3) is within PLAUSIBLE_K1_FACTOR of the nominal K1."""
+    return (math.isfinite(estimate_j_mm3)
+            and nominal_j_mm3 / PLAUSIBLE_K1_FACTOR <= estimate_j_mm3 <= nominal_j_mm3 * PLAUSIBLE_K1_FACTOR)
+
+
 @dataclass
 class PassModelUpdate:
     """Holds the planner's process model; ``observe`` folds in a coefficient estimate and
@@ -64,13 +75,18 @@ class PassModelUpdate:
     process: GrindingProcess
     threshold: float = 0.05
     solved_with: float = dataclasses.field(init=False)
+    nominal: float = dataclasses.field(init=False)  # K1 of the process it started with (J/mm^3)
 
     def __post_init__(self):
-        self.solved_with = self.process.specific_energy_j_mm3
+        self.solved_with = self.nominal = self.process.specific_energy_j_mm3
+
+    def plausible(self, specific_energy_j_mm3: float) -> bool:
+        return plausible_specific_energy(specific_energy_j_mm3, self.nominal)
 
     def observe(self, specific_energy_j_mm3: float) -> bool:
-        if not (math.isfinite(specific_energy_j_mm3) and specific_energy_j_mm3 > 0):
-            raise ValueError(f"K1 estimate must be positive and finite, got {specific_energy_j_mm3!r}")
+        if not self.plausible(specific_energy_j_mm3):
+            raise ValueError(f"K1 estimate {specific_energy_j_mm3!r} J/mm^3 is not within {PLAUSIBLE_K1_FACTOR:g}x "
+                             f"of the nominal {self.nominal:g}")
         self.process = dataclasses.replace(self.process, specific_energy_j_mm3=specific_energy_j_mm3)
         return abs(specific_energy_j_mm3 / self.solved_with - 1.0) > self.threshold
 

@@ -44,6 +44,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.time import Duration
 
+from hex_control.grinding.coefficients import plausible_specific_energy
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
@@ -112,7 +113,7 @@ class PassPlannerNode(Node):
         self._try_plan()
 
     def _on_specific_energy(self, msg: LoadPrediction) -> None:
-        if not (math.isfinite(msg.prediction) and msg.prediction > 0):
+        if not plausible_specific_energy(msg.prediction, self.config.model.process.specific_energy_j_mm3):
             self.diagnostics.count("rejected_predictions")
             return
         self.specific_energy_j_mm3 = float(msg.prediction)

@@ -244,7 +244,7 @@ class SequencePlannerNode(Node):
     def _on_prediction(self, msg: LoadPrediction) -> None:
         if self.model_update is None or self.job is None or self.job.finished:
             return
-        if not (math.isfinite(msg.prediction) and msg.prediction > 0):
+        if not self.model_update.plausible(msg.prediction):
             self.diagnostics.count("rejected_predictions")
             return
         if self.model_update.observe(msg.prediction):
