@@ -104,11 +104,11 @@ def print_row(index: int, command: dict, result: dict) -> None:
     print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
           f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['cut_depth_mm']:>8.4f} "
           f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
-          f"{result['duration_s']:>6.2f} {result['status']}", flush=True)
+          f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} {result['status']}", flush=True)
 
 
 HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'plan mm':>8} {'meas mm':>8} "
-          f"{'F meas':>7} {'dur s':>6} status")
+          f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} status")
 
 
 #: wall seconds the plant's clock may stand still during a job before the job is given up:
