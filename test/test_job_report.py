@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import matplotlib.pyplot as plt
 import pytest
 
-from hex_control.grinding.job_report import JobRecord, job_statistics, strut_figure
+from hex_control.grinding.job_report import (JobRecord, job_statistics, specific_energy_by_pass, strut_figure,
+                                             write_report)
 
 
 @pytest.mark.parametrize("names, labels", [
@@ -41,3 +43,25 @@ def test_statistics_count_the_band_and_compare_the_charge_with_j():
     assert stats["charge_standard_error"] == pytest.approx(1.0 / math.sqrt(3))  # sample std 1
     assert stats["charge_minus_expected_in_standard_errors"] == pytest.approx(0.5 * math.sqrt(3))
     assert stats["jobs_charged"] == 2
+
+
+def test_each_k1_prediction_is_matched_to_the_pass_result_it_follows():
+    record = JobRecord(results={0: {"specific_energy_j_mm3": 8.3, "stamp_s": 21.84},
+                                1: {"specific_energy_j_mm3": 12.9, "stamp_s": 29.68},
+                                2: {"specific_energy_j_mm3": math.nan, "stamp_s": 37.52}},  # nothing removed
+                       k1_predictions=[(29.68, 10.8), (21.84, 8.6), (5.0, 99.0)])  # out of order; a stray one
+    rows = specific_energy_by_pass(record)
+    assert [r[:2] for r in rows[:2]] == [(0, 8.3), (1, 12.9)]
+    assert [r[2] for r in rows[:2]] == [8.6, 10.8]
+    assert math.isnan(rows[2][1]) and math.isnan(rows[2][2])  # the predictor refused the NaN
+
+
+def test_report_of_a_record_writes_its_json_and_k1_plot(tmp_path):
+    result = {"specific_energy_j_mm3": 8.3, "stamp_s": 21.84, "burn": False, "stall": False}
+    record = JobRecord(results={0: result}, k1_predictions=[(21.84, 8.6)],
+                       outcome={"reason": "done", "total_charge": 0.0})
+    summary = write_report(record, tmp_path)
+    assert summary["passes"][0]["specific_energy_j_mm3"] == 8.3
+    assert json.loads((tmp_path / "job.json").read_text())["ended_as_intended"]
+    assert (tmp_path / "specific_energy.png").stat().st_size > 10_000
+    assert not (tmp_path / "contours.png").exists()  # nothing recorded, nothing drawn

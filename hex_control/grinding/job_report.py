@@ -30,6 +30,7 @@ class JobRecord:
     force: list = field(default_factory=list)  # (t s, measured N)
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
     strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
+    k1_predictions: list = field(default_factory=list)  # (stamp s of the pass result it follows, K1 J/mm^3)
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
 
@@ -63,6 +64,7 @@ def write_report(record: JobRecord, out: Path, policy=None) -> dict:
     _plot_contours(record, out / "contours.png")
     _plot_force(record, out / "force_tracking.png")
     _plot_struts(record, out / "strut_lengths.png")
+    _plot_specific_energy(record, out / "specific_energy.png")
     if policy is not None:
         trajectory = [(c["time_remaining_s"], c["material_mm"]) for _, c in sorted(record.commands.items())]
         if record.outcome:
@@ -100,6 +102,34 @@ def _plot_force(record: JobRecord, path: Path) -> None:
     ax.set_ylabel("normal force (N)")
     ax.set_title("Force tracking over the job")
     ax.legend()
+    save(fig, path, dpi=100)
+
+
+def specific_energy_by_pass(record: JobRecord) -> list[tuple[int, float, float]]:
+    """(pass k, K1 the plant measured on pass k, K1 the pass-rate predictor then predicted
+    for pass k + 1 -- NaN if none came), in J/mm^3. A prediction belongs to the pass result
+    whose stamp it carries."""
+    rows = []
+    for k, result in sorted(record.results.items()):
+        predicted = [value for stamp, value in record.k1_predictions
+                     if "stamp_s" in result and abs(stamp - result["stamp_s"]) < 1e-6]
+        rows.append((k, result["specific_energy_j_mm3"], predicted[-1] if predicted else math.nan))
+    return rows
+
+
+def _plot_specific_energy(record: JobRecord, path: Path) -> None:
+    rows = specific_energy_by_pass(record)
+    if not rows:
+        return
+    k, measured, predicted = (np.array(column, dtype=float) for column in zip(*rows))
+    fig, ax = plt.subplots(figsize=(8, 4))
+    ax.plot(k, measured, "o", color="tab:blue", label="measured on the pass (grinder energy / scanned volume)")
+    ax.step(k + 1, predicted, "-", where="post", color="tab:red",
+            label="predicted for the next pass (planners use it)")
+    ax.set_xlabel("pass")
+    ax.set_ylabel("specific energy K1 (J/mm³)")
+    ax.set_title("The disk's K1 per pass and the pass-rate predictor's estimate")
+    ax.legend(fontsize=8)
     save(fig, path, dpi=100)
 
 

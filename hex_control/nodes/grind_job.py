@@ -31,7 +31,11 @@ from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missin
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
+
+
+def _seconds(stamp) -> float:
+    return stamp.sec + stamp.nanosec * 1e-9
 
 
 class JobObserver(Node):
@@ -46,6 +50,7 @@ class JobObserver(Node):
         self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, STREAM)
         self.create_subscription(JointState, "/plant/strut_states", self._on_struts, STREAM)
         self.create_subscription(GrindBead.Result, "/sequence_planner/job_result", self._on_job_result, LATCHED)
+        self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_k1, STREAM)
         self.job_id = None
         self.job_result = None
 
@@ -76,24 +81,27 @@ class JobObserver(Node):
                 "measured_cut_depth_mm": msg.measured_cut_depth_mm, "duration_s": msg.duration_s,
                 "mean_normal_force_n": msg.mean_normal_force_n, "peak_normal_force_n": msg.peak_normal_force_n,
                 "feed_speed_mm_s": msg.feed_speed_mm_s, "specific_energy_j_mm3": msg.specific_energy_j_mm3,
-                "burn": msg.burn_detected, "stall": msg.stall_detected}
+                "burn": msg.burn_detected, "stall": msg.stall_detected, "stamp_s": _seconds(msg.header.stamp)}
 
     def _on_trajectory(self, msg: ForceTrajectory) -> None:
         if self._mine(msg.job_id):
             self.record.events.append(("trajectory", int(msg.pass_index)))
-            start = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+            start = _seconds(msg.header.stamp)
             self.record.trajectories[int(msg.pass_index)] = (start, list(msg.time_from_start_s),
                                                              list(msg.normal_force_n))
+
+    def _on_k1(self, msg: LoadPrediction) -> None:
+        self.record.k1_predictions.append((_seconds(msg.header.stamp), msg.prediction))
 
     def _on_job_result(self, msg) -> None:
         if self.job_id is not None:
             self.job_result = msg
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
-        self.record.force.append((msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9, msg.wrench.force.z))
+        self.record.force.append((_seconds(msg.header.stamp), msg.wrench.force.z))
 
     def _on_struts(self, msg: JointState) -> None:
-        stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+        stamp = _seconds(msg.header.stamp)
         if not self.record.strut_names:
             self.record.strut_names = list(msg.name)
         if not self.record.struts or stamp - self.record.struts[-1][0] >= 0.05 - 1e-9:
