@@ -96,8 +96,8 @@ class NodeGraph:
         self.starts: dict[str, int] = {}
 
     def start(self, name: str | None = None) -> None:
-        """Start one node, or (``name`` None) the whole graph: then first remove the shared
-        memory that crashed processes left behind, on which a new graph can hang."""
+        """Start one node, or (``name`` None) the whole graph: then first remove the Fast DDS
+        shared memory that crashed processes left behind (:mod:`hex_control.nodes.dds_shm`)."""
         if name is None:
             clean_zombie_files()
         for spec in ([self.specs[name]] if name else self.specs.values()):
