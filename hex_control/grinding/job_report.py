@@ -124,8 +124,7 @@ def _plot_specific_energy(record: JobRecord, path: Path) -> None:
     k, measured, predicted = (np.array(column, dtype=float) for column in zip(*rows))
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(k, measured, "o", color="tab:blue", label="measured on the pass (grinder energy / scanned volume)")
-    ax.plot(k + 1, predicted, "s-", color="tab:red", label="predicted for this pass after the one before "
-                                                           "(the planners use it)")
+    ax.plot(k + 1, predicted, "s-", color="tab:red", label="predicted after the pass before (planned with)")
     ax.set_xlabel("pass")
     ax.set_ylabel("specific energy K1 (J/mm³)")
     ax.set_title("The disk's K1 per pass and the pass-rate predictor's estimate")
