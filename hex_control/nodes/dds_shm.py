@@ -8,7 +8,9 @@ end up listening on a port nobody delivers to: its graph discovers itself but no
 arrives (eProsima/Fast-DDS issues 5053 and 5469; the remedy they give is eProsima's
 ``fastdds shm clean``, which this re-implements for the wheels that do not ship it).
 
-Only files whose lock nobody holds are removed, so a graph that is running stays intact.
+Only files whose lock nobody holds are removed, so a graph that is running stays intact;
+and only those older than a few seconds, because a participant starting right now creates
+its files a moment before it locks them.
 """
 
 from __future__ import annotations
@@ -16,9 +18,11 @@ from __future__ import annotations
 import fcntl
 import os
 import re
+import time
 from pathlib import Path
 
 SHM_DIRECTORY = Path("/dev/shm")
+MIN_AGE_S = 5.0  # younger unlocked files may belong to a participant that is being created
 _LOCK = re.compile(r"^(fastdds_(?:[0-9a-f]{16}|port\d+))_(el|sl)$")
 
 
@@ -34,9 +38,17 @@ def _held(lock_file: Path) -> bool:
     return False
 
 
-def zombie_files(directory: Path = SHM_DIRECTORY) -> list[Path]:
+def _age_s(path: Path) -> float:
+    try:
+        return time.time() - path.stat().st_mtime
+    except FileNotFoundError:
+        return 0.0
+
+
+def zombie_files(directory: Path = SHM_DIRECTORY, min_age_s: float = MIN_AGE_S) -> list[Path]:
     """The Fast DDS files in ``directory`` whose owners are gone: every segment or port
-    none of whose lock files is held, with its lock files and (ports) its mutex."""
+    none of whose lock files is held or younger than ``min_age_s``, with its lock files
+    and (ports) its mutex."""
     directory = Path(directory)
     locks: dict[str, list[Path]] = {}
     try:
@@ -48,17 +60,17 @@ def zombie_files(directory: Path = SHM_DIRECTORY) -> list[Path]:
             locks.setdefault(match.group(1), []).append(directory / name)
     zombies = []
     for base, lock_files in sorted(locks.items()):
-        if any(_held(lock) for lock in lock_files):
+        if any(_age_s(lock) < min_age_s or _held(lock) for lock in lock_files):
             continue
         candidates = [directory / base, *lock_files, directory / f"sem.{base}_mutex"]
         zombies += [path for path in candidates if path.exists()]
     return zombies
 
 
-def clean_zombie_files(directory: Path = SHM_DIRECTORY) -> list[Path]:
+def clean_zombie_files(directory: Path = SHM_DIRECTORY, min_age_s: float = MIN_AGE_S) -> list[Path]:
     """Delete :func:`zombie_files`; returns what was deleted."""
     removed = []
-    for path in zombie_files(directory):
+    for path in zombie_files(directory, min_age_s):
         try:
             path.unlink()
             removed.append(path)
