@@ -49,3 +49,12 @@ def test_an_estimate_beyond_ten_times_the_nominal_k1_is_refused(estimate, plausi
         with pytest.raises(ValueError, match="nominal 10"):
             update.observe(estimate)
         assert update.process.specific_energy_j_mm3 == 10.0
+
+
+def test_a_restored_update_is_where_it_was_logged():
+    """A restarted planner: the latest estimate for the cuts, the solved K1 for the policy."""
+    update = PassModelUpdate(GrindingProcess(specific_energy_j_mm3=10.0), threshold=0.05)
+    update.restore(12.3, 12.0)
+    assert update.process.specific_energy_j_mm3 == 12.3 and update.solved_with == 12.0
+    assert update.solved_process.specific_energy_j_mm3 == 12.0 and update.nominal == 10.0
+    assert not update.observe(12.5) and update.observe(12.7)  # threshold against the solved 12.0

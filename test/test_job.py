@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from hex_control.grinding.job import DONE, GrindingJob, JobGoal, unfinished_logs
+from hex_control.grinding.job import DONE, GrindingJob, JobGoal, read_model, unfinished_logs
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.sdp import Charges, solve
 from hex_control.grinding.stochastic import CutDepthModel
@@ -49,6 +49,18 @@ def test_restart_resumes_without_repeating_a_pass(tmp_path):
     indices = [r["pass_index"] for r in resumed.state.history]
     assert indices == list(range(len(indices)))
     assert unfinished_logs(tmp_path) == []
+
+
+def test_model_updates_are_logged_and_read_back_without_changing_the_state(tmp_path):
+    path = tmp_path / "j5.jsonl"
+    job = GrindingJob(JobGoal("j5", 1.9, 12.5, 300.0, 120.0), POLICY, Charges(), path)
+    assert read_model(path) is None
+    pending = run(job, np.random.default_rng(1), stop_after=1)
+    job.update_model(10.4, 10.0)
+    job.update_model(12.1, 12.1)
+    assert read_model(path) == {"type": "model", "specific_energy_j_mm3": 12.1, "solved_with_j_mm3": 12.1}
+    resumed = GrindingJob.resume(path, POLICY, Charges())
+    assert resumed.state == job.state and resumed.decide() == pending
 
 
 def test_torn_last_line_is_ignored(tmp_path):

@@ -93,5 +93,16 @@ class PassModelUpdate:
     def mark_solved(self) -> None:
         self.solved_with = self.process.specific_energy_j_mm3
 
+    @property
+    def solved_process(self) -> GrindingProcess:
+        """The process the current policy was solved with."""
+        return dataclasses.replace(self.process, specific_energy_j_mm3=self.solved_with)
+
+    def restore(self, specific_energy_j_mm3: float, solved_with_j_mm3: float) -> None:
+        """Back to a logged state (a restarted planner): the latest estimate and the K1 of the solve."""
+        self.observe(solved_with_j_mm3)
+        self.mark_solved()
+        self.observe(specific_energy_j_mm3)
+
 
 assert WATT == 1000.0  # K1 J/mm^3 against power in W: the unit bookkeeping above relies on it

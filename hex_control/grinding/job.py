@@ -2,7 +2,8 @@
 
 The top tier of seed 002 (section 3.3, Fig. 5-7): after every pass the planner looks the
 policy up at the measured state (time and material remaining) and decides the next pass,
-or ends the job. Every goal, decision, pass result and end is appended to a JSON-lines log
+or ends the job. Every goal, decision, pass result, process-model update and end is
+appended to a JSON-lines log
 *before* it is acted on, so a restarted planner replays the log and resumes at the last
 recorded state: a decided pass whose result has not arrived is awaited, never re-issued.
 
@@ -72,14 +73,7 @@ class GrindingJob:
     @classmethod
     def resume(cls, log_path: Path, policy: Policy, charges: Charges) -> GrindingJob:
         """Rebuild a job from its log (a torn last line from a crash is ignored)."""
-        records = []
-        for line in Path(log_path).read_text().splitlines():
-            try:
-                records.append(json.loads(line))
-            except json.JSONDecodeError:
-                break
-        if not records or records[0].get("type") != "goal":
-            raise ValueError(f"{log_path} is not a job log")
+        records = _read_log(log_path)
         job = cls(read_goal(log_path), policy, charges, log_path, replay=True)
         for record in records[1:]:
             job._apply(record)
@@ -158,11 +152,35 @@ class GrindingJob:
                       "completed": completed, "material_mm": x, "time_remaining_s": t,
                       "in_path_charge": self.charges.in_path.per_pass + (finish if last else 0.0)})
 
+    def update_model(self, specific_energy_j_mm3: float, solved_with_j_mm3: float) -> None:
+        """Log the planner's process model: the latest K1 estimate (J/mm^3; commands' cut
+        depths use it) and the K1 the current policy was solved with."""
+        self._record({"type": "model", "specific_energy_j_mm3": specific_energy_j_mm3,
+                      "solved_with_j_mm3": solved_with_j_mm3})
+
     def end(self, reason: str, message: str = "") -> None:
         if not self.finished:
             self._record({"type": "end", "reason": reason, "message": message, "charge": self.final_charge(),
                           "material_mm": self.state.material_mm, "time_remaining_s": self.state.time_remaining_s,
                           "passes": self.state.passes})
+
+
+def _read_log(log_path: Path) -> list[dict]:
+    records = []
+    for line in Path(log_path).read_text().splitlines():
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError:
+            break  # torn by a crash mid-write: what follows was never acted on
+    if not records or records[0].get("type") != "goal":
+        raise ValueError(f"{log_path} is not a job log")
+    return records
+
+
+def read_model(log_path: Path) -> dict | None:
+    """The last process-model update on a job log (see ``GrindingJob.update_model``), if any."""
+    models = [r for r in _read_log(log_path) if r["type"] == "model"]
+    return models[-1] if models else None
 
 
 def read_goal(log_path: Path) -> JobGoal:

@@ -35,7 +35,7 @@ from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config, parse_planner_config
 from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, GrindingJob, JobGoal,
-                                      new_job_id, read_goal, unfinished_logs)
+                                      new_job_id, read_goal, read_model, unfinished_logs)
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
@@ -120,9 +120,11 @@ class SequencePlannerNode(Node):
             return
         goal = read_goal(logs[-1])
         process, self.charges = self._configured(goal.config_overrides)
-        process, policy = self._policy_for(goal, process)
-        self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
+        if model := read_model(logs[-1]):  # plan with the K1 estimates the job had before the restart
+            self.model_update.restore(model["specific_energy_j_mm3"], model["solved_with_j_mm3"])
+        _, policy = self._policy_for(goal, self.model_update.solved_process)
+        self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.get_logger().info(f"resumed job {goal.job_id} at pass {self.job.state.passes} "
                                f"(t = {self.job.state.time_remaining_s:.1f} s, X = {self.job.state.material_mm:.3f} mm)")
         self.diagnostics.count("resumed_jobs")
@@ -248,10 +250,10 @@ class SequencePlannerNode(Node):
             self.diagnostics.count("rejected_predictions")
             return
         if self.model_update.observe(msg.prediction):
-            goal = self.job.goal
-            _, self.job.policy = self._policy_for(goal, self.model_update.process)
+            _, self.job.policy = self._policy_for(self.job.goal, self.model_update.process)
             self.model_update.mark_solved()
             self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved")
+        self.job.update_model(msg.prediction, self.model_update.solved_with)
 
     def _watchdog(self) -> None:
         if self._sent_at is None or self.job is None or self.job.finished:
