@@ -51,6 +51,7 @@ class JobRecord:
                 # each pass once, in order (a restarted planner must not repeat or skip one)
                 "passes_in_order": results_in_order == list(range(len(results_in_order))),
                 "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
+                "graph_restarts": sum(kind == "graph_restart" for kind, _ in self.events),
                 "burn": any(r["burn"] for r in self.results.values()),
                 "stall": any(r["stall"] for r in self.results.values())}
 

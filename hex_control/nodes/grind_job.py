@@ -11,6 +11,7 @@ Exit code 0 only if the job ended as the policy intended (done, or Quit Now).
 
 from __future__ import annotations
 
+import sys
 import time
 from pathlib import Path
 
@@ -124,6 +125,13 @@ HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'
 STALL_S = 60.0
 
 
+#: wall seconds for a fresh graph's lock-step loop to run once its streams have matched.
+#: Three times in about a hundred starts on this machine (under load; after a SIGKILL, or
+#: with another graph running) the plant's clock stood still although discovery had
+#: matched every stream; such a graph is started again, before the goal is sent
+LOOP_START_S = 30.0
+
+
 class JobSession:
     """A fresh graph, an observer in its own rclpy context, and one job on it. Use as a
     context manager; ``start_job`` sends the goal, ``wait_for_outcome`` spins to the end
@@ -165,12 +173,27 @@ class JobSession:
             self.executor.spin_once(timeout_sec=0.05)
         return value
 
-    def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
+    def _wait_for_graph(self) -> None:
         record, observer = self.record, self.observer
         self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
         self.spin_until(ResponseProbe(observer.client), 60.0, "the sequence planner's action server to answer")
+        self.spin_until(lambda: record.force and record.force[-1][0] >= 0.5, LOOP_START_S,
+                        "the plant's clock to run (the lock-step loop)")
+
+    def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
+        record, observer = self.record, self.observer
+        try:
+            self._wait_for_graph()
+        except TimeoutError as exc:  # nothing has been asked of the graph yet: start it again, once
+            print(f"the graph did not start ({exc}); starting it again", file=sys.stderr, flush=True)
+            self.graph.stop()
+            record.contours.clear()
+            record.force.clear()
+            record.events.append(("graph_restart", -1))
+            self.graph.start()
+            self._wait_for_graph()
         bead, width = record.contours[0]
         goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
                               bead_width_mm=float(width))
