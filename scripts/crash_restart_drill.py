@@ -23,6 +23,7 @@ import rclpy
 from geometry_msgs.msg import WrenchStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
+from std_msgs.msg import Float64
 
 from hex_control.nodes import graph as graph_module
 from hex_control.nodes.graph import NodeGraph, graph_nodes
@@ -56,12 +57,34 @@ def plant_clock_reaches(sim_s: float, stall_s: float) -> tuple[bool, float, floa
         context.try_shutdown()
 
 
+def samples_in(topics: dict, seconds: float) -> dict[str, int]:
+    """Messages a fresh observer receives on each topic (name -> type) in ``seconds``."""
+    context = Context()
+    rclpy.init(context=context)
+    node = rclpy.create_node("drill_probe", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    counts = dict.fromkeys(topics, 0)
+    for topic, msg_type in topics.items():
+        node.create_subscription(msg_type, topic, lambda _m, t=topic: counts.__setitem__(t, counts[t] + 1), STREAM)
+    end = time.monotonic() + seconds
+    try:
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.1)
+        return counts
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=10)
     parser.add_argument("--sim-s", type=float, default=3.0, help="simulated seconds a cycle must reach")
     parser.add_argument("--stall-s", type=float, default=45.0, help="wall seconds of a standing clock = hang")
-    parser.add_argument("--kill", nargs="+", default=["sequence_planner", "force_controller"])
+    parser.add_argument("--kill", nargs="*", default=["sequence_planner", "force_controller"],
+                        help="nodes to SIGKILL at the end of a cycle (none: every stop is orderly)")
     parser.add_argument("--restart", action="store_true", help="restart the killed nodes and run on")
     parser.add_argument("--no-clean", action="store_true", help="keep the zombie shared-memory files")
     args = parser.parse_args()
@@ -75,6 +98,9 @@ def main() -> int:
             graph.start()
             try:
                 reached, sim_s, wall_s = plant_clock_reaches(args.sim_s, args.stall_s)
+                if not reached:  # which edge of the loop carries nothing?
+                    print(f"  hung: {samples_in({'/plant/wrench': WrenchStamped, '/plant/force_axis_command': Float64}, 5.0)}"
+                          f" messages in 5 s", flush=True)
                 for name in args.kill:
                     graph.kill(name)
                 if args.restart and reached:
