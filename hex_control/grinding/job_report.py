@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from hex_control.grinding.plots import plot_policy_map
 from hex_control.plotting import plt, save
@@ -127,6 +128,7 @@ def _plot_specific_energy(record: JobRecord, path: Path) -> None:
     ax.plot(k, measured, "o", color="tab:blue", label="measured on the pass (grinder energy / scanned volume)")
     ax.plot(k + 1, predicted, "s-", color="tab:red", label="predicted after the pass before (planned with)")
     ax.set_xlabel("pass")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("specific energy K1 (J/mm³)")
     ax.set_title("The disk's K1 per pass and the pass-rate predictor's estimate")
     ax.legend(fontsize=8)
