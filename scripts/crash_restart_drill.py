@@ -5,10 +5,9 @@ Each cycle starts the whole graph (lock-step plant), waits for the plant's clock
 shared-memory files stay behind) and stops the rest. With ``--restart`` the killed nodes
 are started again, as the fault drills do, and the graph runs another ``--sim-s`` before
 an orderly stop. A cycle whose clock stands still for ``--stall-s`` wall seconds counts as
-a hang. ``--no-clean`` starts each graph without removing the zombie shared-memory files
-first (what NodeGraph did before).
+a hang, and a fresh observer then counts what still flows on the loop's two topics.
 
-    python scripts/crash_restart_drill.py --cycles 12 [--restart] [--no-clean]
+    python scripts/crash_restart_drill.py --cycles 12 [--restart] [--kill]
 """
 
 from __future__ import annotations
@@ -25,7 +24,6 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from std_msgs.msg import Float64
 
-from hex_control.nodes import graph as graph_module
 from hex_control.nodes.graph import NodeGraph, graph_nodes
 from hex_control.nodes.interfaces import STREAM
 
@@ -86,10 +84,7 @@ def main() -> int:
     parser.add_argument("--kill", nargs="*", default=["sequence_planner", "force_controller"],
                         help="nodes to SIGKILL at the end of a cycle (none: every stop is orderly)")
     parser.add_argument("--restart", action="store_true", help="restart the killed nodes and run on")
-    parser.add_argument("--no-clean", action="store_true", help="keep the zombie shared-memory files")
     args = parser.parse_args()
-    if args.no_clean:
-        graph_module.clean_zombie_files = lambda: []
     hangs = 0
     with tempfile.TemporaryDirectory() as tmp:
         for cycle in range(args.cycles):
@@ -111,10 +106,10 @@ def main() -> int:
             finally:
                 graph.stop()
             hangs += not reached
-            zombies = sum(1 for n in os.listdir("/dev/shm") if n.startswith("fastdds_"))
+            shm_files = sum(1 for n in os.listdir("/dev/shm") if n.startswith("fastdds_"))
             print(f"cycle {cycle + 1}/{args.cycles}: {'ran' if reached else 'HUNG'} to {sim_s:.2f} s sim in "
-                  f"{wall_s:.1f} s wall; fastdds files in /dev/shm now {zombies}", flush=True)
-    print(f"{hangs} of {args.cycles} graphs hung ({'without' if args.no_clean else 'with'} zombie cleaning)")
+                  f"{wall_s:.1f} s wall; fastdds files in /dev/shm now {shm_files}", flush=True)
+    print(f"{hangs} of {args.cycles} graphs hung")
     return 1 if hangs else 0
 
 

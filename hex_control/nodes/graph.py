@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hex_control.config import config_file
-from hex_control.nodes.dds_shm import clean_zombie_files
 
 SIM_TIME = ["-p", "use_sim_time:=true"]
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
@@ -96,10 +95,6 @@ class NodeGraph:
         self.starts: dict[str, int] = {}
 
     def start(self, name: str | None = None) -> None:
-        """Start one node, or (``name`` None) the whole graph: then first remove the Fast DDS
-        shared memory that crashed processes left behind (:mod:`hex_control.nodes.dds_shm`)."""
-        if name is None:
-            clean_zombie_files()
         for spec in ([self.specs[name]] if name else self.specs.values()):
             count = self.starts.get(spec.name, 0)
             log = open(self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log", "w")
