@@ -139,14 +139,17 @@ def _processes_writing_to(directory: Path) -> list[int]:
 
 
 def test_a_terminated_demo_stops_its_graph(ros_env, tmp_path):
-    """SIGTERM (a CI timeout, a service manager) ends ``hexctl demo`` and its node processes."""
+    """SIGTERM (a CI timeout, a service manager) ends a running ``hexctl demo`` and its nodes."""
     demo = subprocess.Popen(_hexctl_demo(tmp_path, "--deadline", "30"), env=ros_env,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        wait_until(lambda: len(_processes_writing_to(tmp_path / "logs")) == 8, 120.0, interval_s=0.5,
-                   what="the graph's eight nodes")
+        wait_until(lambda: list((tmp_path / "jobs").glob("*.jsonl")), 180.0, interval_s=0.5,
+                   what="the job to start")
+        assert len(_processes_writing_to(tmp_path / "logs")) == 8
         demo.send_signal(signal.SIGTERM)
         assert demo.wait(timeout=60) == 128 + signal.SIGTERM
-    finally:
+        assert _processes_writing_to(tmp_path / "logs") == []
+    finally:  # whatever failed, leave no node running into the next test's graph
         demo.kill()
-    assert _processes_writing_to(tmp_path / "logs") == []
+        for pid in _processes_writing_to(tmp_path / "logs"):
+            os.kill(pid, signal.SIGKILL)

@@ -14,6 +14,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -111,16 +112,16 @@ class NodeGraph:
         process.wait()
 
     def stop(self, name: str | None = None, timeout_s: float = 10.0) -> dict[str, int]:
-        """SIGINT, then SIGKILL after ``timeout_s``; the exit codes."""
+        """SIGINT, then SIGKILL to those still running ``timeout_s`` later; the exit codes."""
         names = [name] if name else list(self.processes)
         for n in names:
             if self.processes[n].poll() is None:
                 self.processes[n].send_signal(signal.SIGINT)
-        codes = {}
+        codes, deadline = {}, time.monotonic() + timeout_s
         for n in names:
             process = self.processes.pop(n)
             try:
-                codes[n] = process.wait(timeout=timeout_s)
+                codes[n] = process.wait(timeout=max(deadline - time.monotonic(), 0.0))
             except subprocess.TimeoutExpired:
                 process.kill()
                 codes[n] = process.wait()
