@@ -3,9 +3,9 @@
 The top tier of seed 002 (section 3.3, Fig. 5-7): after every pass the planner looks the
 policy up at the measured state (time and material remaining) and decides the next pass,
 or ends the job. Every goal, decision, pass result, process-model update and end is
-appended to a JSON-lines log
-*before* it is acted on, so a restarted planner replays the log and resumes at the last
-recorded state: a decided pass whose result has not arrived is awaited, never re-issued.
+appended to a JSON-lines log *before* it is acted on, so a restarted planner replays the
+log and resumes at the last recorded state: a decided pass whose result has not arrived
+is awaited, never re-issued.
 
 Units: mm, N, s; charges in currency units.
 """
