@@ -16,6 +16,7 @@ import argparse
 import os
 import tempfile
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 import rclpy
@@ -28,20 +29,31 @@ from hex_control.nodes.graph import NodeGraph, graph_nodes
 from hex_control.nodes.interfaces import STREAM
 
 
-def plant_clock_reaches(sim_s: float, stall_s: float) -> tuple[bool, float, float]:
-    """Spin an observer on /plant/wrench: (reached, last sim time (s), wall time (s))."""
+@contextmanager
+def observer(name: str):
+    """(node, executor) in a private context, torn down on exit."""
     context = Context()
     rclpy.init(context=context)
-    node = rclpy.create_node("drill_observer", context=context)
+    node = rclpy.create_node(name, context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    latest = {"sim_s": -1.0}
-    node.create_subscription(WrenchStamped, "/plant/wrench",
-                             lambda m: latest.update(sim_s=m.header.stamp.sec + m.header.stamp.nanosec * 1e-9),
-                             STREAM)
-    start = since = time.monotonic()
-    seen = latest["sim_s"]
     try:
+        yield node, executor
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+
+
+def plant_clock_reaches(sim_s: float, stall_s: float) -> tuple[bool, float, float]:
+    """Spin an observer on /plant/wrench: (reached, last sim time (s), wall time (s))."""
+    with observer("drill_observer") as (node, executor):
+        latest = {"sim_s": -1.0}
+        node.create_subscription(WrenchStamped, "/plant/wrench",
+                                 lambda m: latest.update(sim_s=m.header.stamp.sec + m.header.stamp.nanosec * 1e-9),
+                                 STREAM)
+        start = since = time.monotonic()
+        seen = latest["sim_s"]
         while latest["sim_s"] < sim_s:
             executor.spin_once(timeout_sec=0.1)
             if latest["sim_s"] != seen:
@@ -49,31 +61,19 @@ def plant_clock_reaches(sim_s: float, stall_s: float) -> tuple[bool, float, floa
             elif time.monotonic() - since > stall_s:
                 return False, latest["sim_s"], time.monotonic() - start
         return True, latest["sim_s"], time.monotonic() - start
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
 
 
 def samples_in(topics: dict, seconds: float) -> dict[str, int]:
     """Messages a fresh observer receives on each topic (name -> type) in ``seconds``."""
-    context = Context()
-    rclpy.init(context=context)
-    node = rclpy.create_node("drill_probe", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    counts = dict.fromkeys(topics, 0)
-    for topic, msg_type in topics.items():
-        node.create_subscription(msg_type, topic, lambda _m, t=topic: counts.__setitem__(t, counts[t] + 1), STREAM)
-    end = time.monotonic() + seconds
-    try:
+    with observer("drill_probe") as (node, executor):
+        counts = dict.fromkeys(topics, 0)
+        for topic, msg_type in topics.items():
+            node.create_subscription(msg_type, topic, lambda _m, t=topic: counts.__setitem__(t, counts[t] + 1),
+                                     STREAM)
+        end = time.monotonic() + seconds
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.1)
         return counts
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
 
 
 def main() -> int:
