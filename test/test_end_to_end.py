@@ -140,14 +140,16 @@ def _processes_writing_to(directory: Path) -> list[int]:
 
 def test_a_terminated_demo_stops_its_graph(ros_env, tmp_path):
     """SIGTERM (a CI timeout, a service manager) ends a running ``hexctl demo`` and its nodes."""
-    demo = subprocess.Popen(_hexctl_demo(tmp_path, "--deadline", "30"), env=ros_env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    stderr = tmp_path / "demo.stderr"
+    with stderr.open("w") as err:
+        demo = subprocess.Popen(_hexctl_demo(tmp_path, "--deadline", "30"), env=ros_env,
+                                stdout=subprocess.DEVNULL, stderr=err)
     try:
         wait_until(lambda: list((tmp_path / "jobs").glob("*.jsonl")), 180.0, interval_s=0.5,
                    what="the job to start")
         assert len(_processes_writing_to(tmp_path / "logs")) == 8
         demo.send_signal(signal.SIGTERM)
-        assert demo.wait(timeout=60) == 128 + signal.SIGTERM
+        assert demo.wait(timeout=60) == 128 + signal.SIGTERM, stderr.read_text()[-3000:]
         assert _processes_writing_to(tmp_path / "logs") == []
     finally:  # whatever failed, leave no node running into the next test's graph
         demo.kill()

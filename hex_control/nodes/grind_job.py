@@ -145,7 +145,9 @@ class JobSession:
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
-        rclpy.init(context=self.context)
+        # no rclpy signal handlers: they shut the context down from a thread of their own, racing
+        # the SystemExit that `hexctl demo` raises on SIGTERM to stop the graph (a CI run exited 1, not 143)
+        rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.observer = JobObserver(self.record, context=self.context)
         self.executor.add_node(self.observer)
@@ -156,11 +158,13 @@ class JobSession:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.executor.remove_node(self.observer)
-        self.observer.destroy_node()
-        self.executor.shutdown()
-        self.context.try_shutdown()
-        self.graph.stop()
+        try:
+            self.executor.remove_node(self.observer)
+            self.observer.destroy_node()
+            self.executor.shutdown()
+            self.context.try_shutdown()
+        finally:  # the nodes run in sessions of their own: nothing else would stop them
+            self.graph.stop()
 
     def spin_until(self, condition, timeout_s: float, what: str):
         end = time.monotonic() + timeout_s
