@@ -20,7 +20,7 @@ from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.pass_plan import plan_forces
 from hex_control.grinding.contour import weld_bead
 from hex_control.nodes.interfaces import RESULTS, contour_to_message
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
 from hex_control_msgs.msg import Contour as ContourMsg
 from ros_harness import wait_until
 
@@ -49,9 +49,9 @@ def planner(ros, spawn):
     return start_planner(ros, spawn, "-p", "reachability_service:=''")  # no kinematics node here
 
 
-def _command(pass_index=0, depth=0.3, feed=10.0):
+def _command(pass_index=0, depth=0.3, feed=10.0, specific_energy_j_mm3=0.0):
     return PassCommand(job_id="job-a", pass_index=pass_index, cut_depth_mm=depth, feed_speed_mm_s=feed,
-                       normal_force_n=45.0)
+                       normal_force_n=45.0, specific_energy_j_mm3=specific_energy_j_mm3)
 
 
 def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
@@ -78,18 +78,12 @@ def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
     assert np.all(np.isfinite(z))
 
 
-def test_passes_are_planned_with_the_predicted_k1(planner, ros):
-    """A dulling disk: the pass-rate predictor's K1 replaces the config's for the passes
-    planned after it, so the same cut asks for the force the model gives at that K1."""
+def test_the_force_is_planned_with_the_commands_k1(planner):
+    """A dulling disk: the sequence planner computed the cut with a K1 of 15 J/mm^3, so the
+    same cut asks for the force the model gives at that K1 (0 = the config's K1)."""
     publishers, outputs = planner
-    node = ros.node("k1_source")
-    k1 = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
-    ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1, timeout_s=20.0)
-    for value in (math.nan, -1.0, 1e300, 15.0):  # the first three are refused
-        k1.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=value))
-    time.sleep(1.0)
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
-    publishers["command"].publish(_command())
+    publishers["command"].publish(_command(specific_energy_j_mm3=15.0))
     trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
                             what="a force trajectory")
     status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 5.0, what="status")
@@ -110,6 +104,9 @@ def test_passes_are_planned_with_the_predicted_k1(planner, ros):
     (_command(depth=math.nan), "non-finite"),
     (_command(feed=500.0), "feed speed"),
     (_command(pass_index=3), "no contour for pass 3"),
+    (_command(specific_energy_j_mm3=1e300), "implausible K1"),
+    (_command(specific_energy_j_mm3=-1.0), "implausible K1"),
+    (_command(specific_energy_j_mm3=math.nan), "implausible K1"),
 ])
 def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, command, reason):
     publishers, outputs = planner

@@ -3,6 +3,7 @@
 import dataclasses
 import math
 import signal
+import threading
 import time
 
 import numpy as np
@@ -35,6 +36,7 @@ class PassExecutor:
         self.answered: list[tuple[str, int]] = []
         self.commanded: list[int] = []  # every pass index the planner asked for
         self.hold_from = math.inf
+        self.specific_energy_j_mm3 = math.nan  # the K1 each pass measured (nan: none)
         self.publisher = self.node.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
         self.node.create_subscription(PassCommand, "/grinding/pass_command", self.on_command, LATCHED)
 
@@ -46,9 +48,11 @@ class PassExecutor:
         self.answered.append(key)
         cut = MODEL.sample(command.cut_depth_mm, MODEL.std_mm(PROCESS, command.normal_force_n, command.feed_speed_mm_s),
                            self.rng)
-        self.publisher.publish(PassResult(job_id=command.job_id, pass_index=command.pass_index,
-                                          status=PassResult.COMPLETED, measured_cut_depth_mm=cut,
-                                          duration_s=command.pass_duration_s, feed_speed_mm_s=command.feed_speed_mm_s))
+        result = PassResult(job_id=command.job_id, pass_index=command.pass_index, status=PassResult.COMPLETED,
+                            measured_cut_depth_mm=cut, duration_s=command.pass_duration_s,
+                            feed_speed_mm_s=command.feed_speed_mm_s, specific_energy_j_mm3=self.specific_energy_j_mm3)
+        result.header.stamp.sec = 10 * (command.pass_index + 1)  # the plant clock at the pass's end
+        self.publisher.publish(result)
 
 
 @pytest.fixture
@@ -176,13 +180,66 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path
     assert sorted(commands) == indices
     for c in commands.values():
         assert c.pass_duration_s - 300.0 / c.feed_speed_mm_s == pytest.approx(5.0, abs=1e-6)  # the goal's t_R
+    assert [commands[i].specific_energy_j_mm3 for i in indices[:2]] == [PROCESS.specific_energy_j_mm3] * 2
     process, _, _, _ = load_planner_config(config_file("sequence_planner.yaml"))
     dull = dataclasses.replace(process, specific_energy_j_mm3=12.0, bead_width_mm=12.5, bead_length_mm=300.0)
     for index in indices[2:]:  # after the restart: the cut the duller disk gives, not the nominal one
         c = commands[index]
+        assert c.specific_energy_j_mm3 == 12.0  # the pass planner forces the cut with the same K1
         assert c.cut_depth_mm == pytest.approx(float(dull.cut_depth_mm(c.normal_force_n, c.feed_speed_mm_s)),
                                                rel=1e-9)
         assert c.cut_depth_mm < 0.9 * float(PROCESS.cut_depth_mm(c.normal_force_n, c.feed_speed_mm_s))
+
+
+def test_each_pass_is_planned_with_the_k1_predicted_from_the_pass_before(ros, planner):
+    """The pass-rate predictor answers each pass result 0.5 s later (a slow predictor): the
+    planner waits for it, so pass k+1 is cut with the prediction from pass k, every time,
+    not with whichever prediction happened to arrive before the result."""
+    planner()
+    executor = PassExecutor(ros)
+    executor.specific_energy_j_mm3 = 11.0
+    node = ros.node("slow_predictor")
+    predictions = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+
+    def predict(result: PassResult) -> None:  # K1 11.5, 12, 12.5 ... after passes 0, 1, 2 ...
+        k1 = 11.5 + 0.5 * result.pass_index
+        threading.Timer(0.5, predictions.publish, [LoadPrediction(
+            header=result.header, quantity="specific_energy_j_mm3", prediction=k1)]).start()
+    node.create_subscription(PassResult, "/grinding/pass_result", predict, RESULTS)
+    commands = {}
+    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: commands.update(
+        {c.pass_index: c}), RESULTS)
+    ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1)
+    result = result_of(send(ros, GrindBead.Goal(job_id="bead5", bead_height_mm=1.5, bead_width_mm=12.5,
+                                                bead_length_mm=300.0, deadline_s=120.0))).result
+    assert result.passes >= 3 and sorted(commands) == list(range(result.passes))
+    assert commands[0].specific_energy_j_mm3 == PROCESS.specific_energy_j_mm3
+    for k in range(1, result.passes):
+        c = commands[k]
+        assert c.specific_energy_j_mm3 == 11.5 + 0.5 * (k - 1), f"pass {k}"
+        k1 = dataclasses.replace(PROCESS, specific_energy_j_mm3=c.specific_energy_j_mm3, bead_width_mm=12.5,
+                                 bead_length_mm=300.0)
+        assert c.cut_depth_mm == pytest.approx(float(k1.cut_depth_mm(c.normal_force_n, c.feed_speed_mm_s)),
+                                               rel=1e-9)
+
+
+def test_a_silent_predictor_delays_a_decision_by_the_wait_only(ros, planner):
+    """A predictor that publishes nothing for the pass just measured holds the next decision
+    for ``prediction_wait_s`` (2 s), then the planner goes on with the K1 it has."""
+    planner()
+    executor = PassExecutor(ros)
+    executor.specific_energy_j_mm3, executor.hold_from = 11.0, 2
+    node = ros.node("silent_predictor")
+    node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    arrivals = {}
+    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: arrivals.setdefault(
+        c.pass_index, (time.monotonic(), c)), RESULTS)
+    ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1)
+    send(ros, GrindBead.Goal(job_id="bead6", bead_height_mm=1.5, bead_width_mm=12.5,
+                             bead_length_mm=300.0, deadline_s=120.0))
+    wait_until(lambda: 1 in arrivals, 15.0, what="the second pass command")
+    (t0, _), (t1, second) = arrivals[0], arrivals[1]
+    assert 2.0 <= t1 - t0 < 10.0 and second.specific_energy_j_mm3 == PROCESS.specific_energy_j_mm3
 
 
 def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):

@@ -71,7 +71,7 @@ class JobObserver(Node):
             self.record.events.append(("command", int(msg.pass_index)))
             self.record.commands[int(msg.pass_index)] = {
                 "force_n": msg.normal_force_n, "feed_mm_s": msg.feed_speed_mm_s, "cut_depth_mm": msg.cut_depth_mm,
-                "material_mm": msg.material_remaining_mm, "time_remaining_s": msg.time_remaining_s,
+                "specific_energy_j_mm3": msg.specific_energy_j_mm3, "material_mm": msg.material_remaining_mm, "time_remaining_s": msg.time_remaining_s,
                 "expected_penalty": msg.expected_penalty, "duration_s": msg.pass_duration_s}
 
     def _on_result(self, msg: PassResult) -> None:
@@ -111,12 +111,14 @@ class JobObserver(Node):
 
 def print_row(index: int, command: dict, result: dict) -> None:
     print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
-          f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['cut_depth_mm']:>8.4f} "
+          f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
+          f"{command['cut_depth_mm']:>8.4f} "
           f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
           f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} {result['status']}", flush=True)
 
 
-HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'plan mm':>8} {'meas mm':>8} "
+HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'K1 plan':>7} {'plan mm':>8} "
+          f"{'meas mm':>8} "
           f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} status")
 
 

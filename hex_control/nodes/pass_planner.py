@@ -5,10 +5,6 @@ force trajectory and the tool path out (seed 002 ch. 6; library
 Topics:
     /grinding/pass_command     (PassCommand, latched)       in
     /grinding/contour          (Contour, latched)           in   the profile after pass k
-    /load_predictor/pass/prediction (LoadPrediction)        in   K1 (J/mm^3) predicted for the
-                                                                 next pass: the passes planned
-                                                                 after it use it (a dulling disk
-                                                                 needs more force per mm of cut)
     /grinding/force_trajectory (ForceTrajectory, latched)   out  for the force controller
     /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
                                                                  ``lookahead_s`` ahead of
@@ -22,6 +18,11 @@ Topics:
 Before a path is sent, its poses (one sample in ten, and the last) are checked with the
 kinematics node's TestPose (``reachability_service``; '' = no check): a path the machine
 cannot reach is refused with the offending pose, before anything moves.
+
+The force is planned with the K1 the command carries: the one the sequence planner
+computed its cut depth with (the pass-rate predictor's, for a dulling disk that needs
+more force per mm of cut); 0 means the config's. A K1 more than PLAUSIBLE_K1_FACTOR
+(10) times off the config's is refused.
 
 A command for pass k is planned on the contour after k passes (``pass_index`` k and the
 same job, or a contour without a job id). If none has arrived within ``contour_wait_s``
@@ -53,7 +54,7 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, ToolPose
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPose
 from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
@@ -75,9 +76,6 @@ class PassPlannerNode(Node):
                         "plant applies them on time whatever the latency of the chain"))
         self.declare_parameter("machine_file", "", ParameterDescriptor(
             description="machine YAML whose bead_frame (if any) places the bead; '' = the config's", read_only=True))
-        self.declare_parameter("specific_energy_topic", "/load_predictor/pass/prediction", ParameterDescriptor(
-            description="LoadPrediction of K1 (J/mm^3) that replaces the config's; '' = keep the config's",
-            read_only=True))
         machine_file = self.get_parameter("machine_file").value
         self.config = load_pass_planner_config(self.get_parameter("config").value,
                                                load_machine(machine_file)[1] if machine_file else None)
@@ -93,7 +91,6 @@ class PassPlannerNode(Node):
         service = self.get_parameter("reachability_service").value
         self.reach_client = self.create_client(TestPose, service) if service else None
         self.path = None  # (start time, ToolPath, next sample index)
-        self.specific_energy_j_mm3 = self.config.model.process.specific_energy_j_mm3  # K1 the passes are planned with
 
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
@@ -101,8 +98,6 @@ class PassPlannerNode(Node):
         self.setpoint_pub = self.create_publisher(PoseStamped, "/motion/setpoint_raw", 100)
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
-        if topic := self.get_parameter("specific_energy_topic").value:
-            self.create_subscription(LoadPrediction, topic, self._on_specific_energy, 10)
         self.create_timer(0.02, self._poll)
         self.create_timer(self.config.path.sample_period_s, self._stream)
 
@@ -111,13 +106,6 @@ class PassPlannerNode(Node):
         self.contour = msg
         self.diagnostics.count("contours")
         self._try_plan()
-
-    def _on_specific_energy(self, msg: LoadPrediction) -> None:
-        if not plausible_specific_energy(msg.prediction, self.config.model.process.specific_energy_j_mm3):
-            self.diagnostics.count("rejected_predictions")
-            return
-        self.specific_energy_j_mm3 = float(msg.prediction)
-        self.diagnostics.count("specific_energy_updates")
 
     def _on_command(self, msg: PassCommand) -> None:
         key = (msg.job_id, msg.pass_index)
@@ -140,13 +128,17 @@ class PassPlannerNode(Node):
         if contour is None:
             return
         command, self.pending = self.pending, None
-        self.planning = (command, self.worker.submit(self._plan, command, contour, self.specific_energy_j_mm3))
+        self.planning = (command, self.worker.submit(self._plan, command, contour))
 
     # -- planning (worker thread: library calls only) ------------------------------------
-    def _plan(self, command: PassCommand, contour_msg: ContourMsg, specific_energy_j_mm3: float):
+    def _plan(self, command: PassCommand, contour_msg: ContourMsg):
         values = (command.cut_depth_mm, command.feed_speed_mm_s)
         if not all(math.isfinite(v) for v in values):
             raise PlanningError(f"non-finite command: cut depth {values[0]!r} mm, feed {values[1]!r} mm/s")
+        nominal = self.config.model.process.specific_energy_j_mm3
+        specific_energy_j_mm3 = command.specific_energy_j_mm3 or nominal
+        if not plausible_specific_energy(specific_energy_j_mm3, nominal):
+            raise PlanningError(f"implausible K1 {specific_energy_j_mm3!r} J/mm^3 (the config's is {nominal:g})")
         try:
             contour = contour_from_message(contour_msg)
         except ValueError as exc:

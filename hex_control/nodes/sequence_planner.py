@@ -12,6 +12,10 @@ a restarted planner resumes an unfinished job from its log (the action client of
 process is gone: the resumed job reports on ~/job_feedback and ~/job_result).
 K1 estimates on /load_predictor/pass/prediction (LoadPrediction, J/mm^3) update the
 process model and trigger a re-solve when they move more than ``resolve_threshold``.
+The prediction made from pass k's measured K1 is the one for pass k+1: while a predictor
+publishes, the decision after pass k waits for it (the prediction stamped like the pass
+result; at most ``prediction_wait_s``), so that which K1 a pass is planned with does not
+depend on which message arrives first. Each PassCommand carries that K1 down.
 
 The job's time is logical: it advances by the measured pass durations (a waiting step
 advances it by one stage), not by this node's clock.
@@ -75,6 +79,9 @@ class SequencePlannerNode(Node):
             description="relative change of K1 that triggers a re-solve"))
         self.declare_parameter("pass_timeout_s", 300.0, ParameterDescriptor(
             description="wall time to wait for a pass result before aborting the job (s)"))
+        self.declare_parameter("prediction_wait_s", 2.0, ParameterDescriptor(
+            description="wall time a decision waits for the K1 prediction from the pass just "
+                        "measured, when a predictor publishes (s); 0 = decide at once"))
         self.base_config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
         _, self.charges, self.grid, self.cut_model = load_planner_config(
             self.get_parameter("planner_config").value)
@@ -85,6 +92,8 @@ class SequencePlannerNode(Node):
         self.results: dict[bytes, GrindBead.Result] = {}
         self.model_update: PassModelUpdate | None = None
         self._sent_at = None
+        self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
+        self._last_prediction_stamp = None
 
         self.command_pub = self.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
         self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", 10)
@@ -169,7 +178,9 @@ class SequencePlannerNode(Node):
         command.pass_index = decision["pass_index"]
         command.normal_force_n = decision["force_n"]
         command.feed_speed_mm_s = decision["feed_mm_s"]
-        command.cut_depth_mm = float(self.model_update.process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"]))
+        process = self.model_update.process  # one K1 for the cut depth here and the force downstream
+        command.cut_depth_mm = float(process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"]))
+        command.specific_energy_j_mm3 = float(process.specific_energy_j_mm3)
         command.pass_duration_s = decision["duration_s"]
         command.material_remaining_mm = decision["material_mm"]
         command.time_remaining_s = decision["time_remaining_s"]
@@ -190,6 +201,7 @@ class SequencePlannerNode(Node):
                                 lateness_s=max(0.0, -state.time_remaining_s), total_charge=end["charge"])
 
     def _finish(self) -> None:
+        self._awaited_stamp = None  # a cancel while a prediction was awaited
         result = self._result_message()
         self.result_pub.publish(result)
         self.diagnostics.count(f"jobs_{self.job.state.end['reason']}")
@@ -241,6 +253,12 @@ class SequencePlannerNode(Node):
         job.apply_result(msg.pass_index, msg.measured_cut_depth_mm, msg.duration_s, msg.status == PassResult.COMPLETED)
         if msg.burn_detected:
             self.diagnostics.warn(f"burn reported on pass {msg.pass_index}")
+        stamp = _stamp_ns(msg.header.stamp)
+        if (self.get_parameter("prediction_wait_s").value > 0 and stamp != self._last_prediction_stamp
+                and self.model_update.plausible(msg.specific_energy_j_mm3)
+                and self.count_publishers("/load_predictor/pass/prediction") > 0):
+            self._awaited_stamp = (stamp, time.monotonic())
+            return
         self._advance()
 
     def _on_prediction(self, msg: LoadPrediction) -> None:
@@ -248,19 +266,33 @@ class SequencePlannerNode(Node):
             return
         if not self.model_update.plausible(msg.prediction):
             self.diagnostics.count("rejected_predictions")
-            return
-        if self.model_update.observe(msg.prediction):
-            _, self.job.policy = self._policy_for(self.job.goal, self.model_update.process)
-            self.model_update.mark_solved()
-            self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved")
-        self.job.update_model(msg.prediction, self.model_update.solved_with)
+        else:
+            if self.model_update.observe(msg.prediction):
+                _, self.job.policy = self._policy_for(self.job.goal, self.model_update.process)
+                self.model_update.mark_solved()
+                self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved")
+            self.job.update_model(msg.prediction, self.model_update.solved_with)
+        self._last_prediction_stamp = _stamp_ns(msg.header.stamp)
+        if self._awaited_stamp and self._awaited_stamp[0] == self._last_prediction_stamp:
+            self._awaited_stamp = None
+            self._advance()
 
     def _watchdog(self) -> None:
+        if self._awaited_stamp and time.monotonic() - self._awaited_stamp[1] > self.get_parameter(
+                "prediction_wait_s").value:
+            self._awaited_stamp = None
+            self.diagnostics.count("prediction_timeouts")
+            self.get_logger().warning("no K1 prediction for the pass just measured: deciding without it")
+            self._advance()
         if self._sent_at is None or self.job is None or self.job.finished:
             return
         if time.monotonic() - self._sent_at > self.get_parameter("pass_timeout_s").value:
             self.job.end(ABORTED, "no pass result before the timeout")
             self._finish()
+
+
+def _stamp_ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
 
 
 def main(args=None) -> int:
