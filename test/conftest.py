@@ -35,7 +35,7 @@ def ros(ros_env):
 
 
 @pytest.fixture
-def spawn(ros_env, tmp_path):
+def spawn(ros_env, tmp_path, request):
     """``spawn(['hex-load-predictor', '--ros-args', ...])`` -> NodeProcess, stopped at teardown."""
     processes: list[NodeProcess] = []
 
@@ -45,5 +45,17 @@ def spawn(ros_env, tmp_path):
         return process
 
     yield start
+    failed = getattr(request.node, "call_failed", False)
     for process in processes:
-        process.stop()
+        # a failed test's nodes that still run leave every thread's traceback in their logs:
+        # a node that hangs says where
+        if process.stop(dump=failed) and failed:
+            print(f"--- {process.log_path.name} (exit {process.process.returncode}):\n{process.output()[-4000:]}")
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_makereport(item, call):
+    report = yield
+    if report.when == "call" and report.failed:
+        item.call_failed = True
+    return report

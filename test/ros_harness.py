@@ -22,6 +22,8 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile
 
+from hex_control.nodes.graph import stop_hung
+
 #: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively
 _DOMAIN_FIRST, _DOMAIN_COUNT = 100, 130
 
@@ -143,13 +145,12 @@ class NodeProcess:
     def alive(self) -> bool:
         return self.process.poll() is None
 
-    def stop(self, timeout_s: float = 10.0) -> int:
+    def stop(self, timeout_s: float = 10.0, dump: bool = False) -> int:
+        """SIGINT (``dump``: SIGABRT at once, for every thread's traceback in the log; so
+        does a node that has not stopped ``timeout_s`` after SIGINT)."""
         if self.alive():
-            self.process.send_signal(signal.SIGINT)
-            try:
-                self.process.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
+            if not dump:
+                self.process.send_signal(signal.SIGINT)
+            stop_hung(self.process, 0.0 if dump else timeout_s)
         self._log.close()
         return self.process.returncode

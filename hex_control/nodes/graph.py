@@ -80,6 +80,20 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
     ]
 
 
+def stop_hung(process: subprocess.Popen, timeout_s: float) -> int:
+    """Wait ``timeout_s`` for a process told to stop; then SIGABRT (with PYTHONFAULTHANDLER
+    set, a Python process dumps every thread's traceback first) and SIGKILL. Exit code."""
+    try:
+        return process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.send_signal(signal.SIGABRT)
+    try:
+        return process.wait(timeout=2.0)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        return process.wait()
+
+
 class NodeGraph:
     """Start, stop, kill and restart the graph's processes; logs in ``log_dir``."""
 
@@ -92,6 +106,7 @@ class NodeGraph:
         self.env = dict(os.environ if env is None else env)
         self.env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         self.env["PYTHONUNBUFFERED"] = "1"
+        self.env["PYTHONFAULTHANDLER"] = "1"  # SIGABRT leaves every thread's traceback in the log
         self.processes: dict[str, subprocess.Popen] = {}
         self.starts: dict[str, int] = {}
 
@@ -112,19 +127,15 @@ class NodeGraph:
         process.wait()
 
     def stop(self, name: str | None = None, timeout_s: float = 10.0) -> dict[str, int]:
-        """SIGINT, then SIGKILL to those still running ``timeout_s`` later; the exit codes."""
+        """SIGINT, then to those still running ``timeout_s`` later SIGABRT (a hung node writes
+        its threads' tracebacks into its log) and SIGKILL; the exit codes."""
         names = [name] if name else list(self.processes)
         for n in names:
             if self.processes[n].poll() is None:
                 self.processes[n].send_signal(signal.SIGINT)
         codes, deadline = {}, time.monotonic() + timeout_s
         for n in names:
-            process = self.processes.pop(n)
-            try:
-                codes[n] = process.wait(timeout=max(deadline - time.monotonic(), 0.0))
-            except subprocess.TimeoutExpired:
-                process.kill()
-                codes[n] = process.wait()
+            codes[n] = stop_hung(self.processes.pop(n), max(deadline - time.monotonic(), 0.0))
         return codes
 
     def dead(self) -> dict[str, int]:
