@@ -1,7 +1,7 @@
 """The whole hierarchy over ROS 2, every node its own process, the plant in lock-step
 (DESIGN.md section 4; seed 002 3.3 and 6.7: each tier hands the next what it measured).
 
-A short bead and deadline keep each job to 20 to 30 s of simulated time (a minute or two
+A short bead and deadline keep each job to 18 to 30 s of simulated time (a minute or two
 of wall time on this 2-core machine: every node is its own Python process)."""
 
 import json
@@ -70,7 +70,7 @@ def test_a_job_on_the_3pru_head_ends_as_the_policy_intends(ros_env, tmp_path):
     job is the restart test's below (one job less for CI)."""
     with JobSession(tmp_path, seed=3, plant_overrides=STEADY,
                     machine_file=str(config_file("machines/pru3_feed.yaml"))) as session:
-        session.start_job(22.0, RESET_TIME_S)
+        session.start_job(18.0, RESET_TIME_S)
         outcome = session.wait_for_outcome(400.0)
     assert_passes_as_planned(session.record, outcome)
     assert_consistent(session.record, outcome)

@@ -85,7 +85,7 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diagnostics.update(
             {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}), 100)
         session.spin_until(lambda: 0 in session.record.contours, 60.0, "the graph")
-        fuzz(session, node, UPSTREAM, 3000)
+        fuzz(session, node, UPSTREAM, 2000)
         session.spin_until(lambda: len(diagnostics) >= 8 and not session.graph.dead(), 10.0, "diagnostics")
         # nothing non-finite or beyond the controller's limits reached a command
         assert commands and all(math.isfinite(c) and -2.0 <= c <= 2.0 for c in commands)
