@@ -232,8 +232,9 @@ def test_a_silent_predictor_delays_a_decision_by_the_wait_only(ros, planner):
     node = ros.node("silent_predictor")
     node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
     arrivals = {}
-    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: arrivals.setdefault(
-        c.pass_index, (time.monotonic(), c)), RESULTS)
+    ros.node("command_listener").create_subscription(
+        PassCommand, "/grinding/pass_command", lambda c: arrivals.setdefault(c.pass_index, (time.monotonic(), c)),
+        RESULTS)
     ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1)
     send(ros, GrindBead.Goal(job_id="bead6", bead_height_mm=1.5, bead_width_mm=12.5,
                              bead_length_mm=300.0, deadline_s=120.0))

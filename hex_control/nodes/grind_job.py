@@ -71,7 +71,8 @@ class JobObserver(Node):
             self.record.events.append(("command", int(msg.pass_index)))
             self.record.commands[int(msg.pass_index)] = {
                 "force_n": msg.normal_force_n, "feed_mm_s": msg.feed_speed_mm_s, "cut_depth_mm": msg.cut_depth_mm,
-                "specific_energy_j_mm3": msg.specific_energy_j_mm3, "material_mm": msg.material_remaining_mm, "time_remaining_s": msg.time_remaining_s,
+                "specific_energy_j_mm3": msg.specific_energy_j_mm3, "material_mm": msg.material_remaining_mm,
+                "time_remaining_s": msg.time_remaining_s,
                 "expected_penalty": msg.expected_penalty, "duration_s": msg.pass_duration_s}
 
     def _on_result(self, msg: PassResult) -> None:
