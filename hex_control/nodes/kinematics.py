@@ -26,7 +26,7 @@ import threading
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
@@ -37,6 +37,7 @@ from hex_control.kinematics.rotation import rpy_from_quaternion
 from hex_control.kinematics.stewart import (CONSTRAINT_SETS, ForwardKinematicsError, check_poses,
                                             forward_kinematics)
 from hex_control.kinematics.workspace import compute_workspace, cross_section
+from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPose
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
@@ -258,22 +259,11 @@ class WorkspaceService(Node):
         return self.core.workspace(request, response, self.get_logger())
 
 
-def _spin_until_stopped(executor, stop: threading.Event) -> None:
-    """Spin in short waits, so the main thread can stop this one before it tears down."""
-    try:
-        while not stop.is_set():
-            executor.spin_once(timeout_sec=0.1)
-    except ExternalShutdownException:
-        pass
-
-
 def main(args=None) -> int:
-    import sys
-
     import rclpy
 
-    rclpy.init(args=sys.argv if args is None else args)
-    nodes, executors, worker, stop = [], [], None, threading.Event()
+    stop = runtime.init(args)
+    nodes, executors, worker = [], [], None
     try:
         node = KinematicsNode()
         companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
@@ -282,11 +272,9 @@ def main(args=None) -> int:
         executors = [SingleThreadedExecutor(), SingleThreadedExecutor()]
         for executor, each in zip(executors, nodes):
             executor.add_node(each)
-        worker = threading.Thread(target=_spin_until_stopped, args=(executors[1], stop), daemon=True)
+        worker = threading.Thread(target=runtime.spin_until_stopped, args=(executors[1], stop), daemon=True)
         worker.start()
-        executors[0].spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        runtime.spin_until_stopped(executors[0], stop)
     finally:
         # the worker leaves its wait set before any executor or node is torn down: shutting
         # down an executor another thread is waiting in can crash the process
