@@ -138,6 +138,8 @@ def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: in
         if publisher.get_subscription_count():
             # this writer can see a reader before the reader sees it: samples sent in between are lost
             _spin_for(node, 0.5)
+        else:
+            print(f"hexctl: no subscriber on {topic} after {wait_s:g} s; publishing anyway", file=sys.stderr)
         sent = 0
         while rclpy.ok() and (times <= 0 or sent < times):
             publisher.publish(msg)

@@ -1,6 +1,7 @@
 """The benchmark harness runs its cases and prints a ratio against an in-process baseline."""
 
 import re
+import warnings
 
 from hex_control.bench import run_benchmarks
 
@@ -43,6 +44,8 @@ def test_loop_benchmark_runs_the_force_loop_over_ros(capsys):
     for rate in (200, 500):
         assert re.search(rf"real-time at {rate} Hz: achieved +[\d.]+ Hz, missed +[\d.]+ %, command latency "
                          r"p50 [\d.]+ ms p99 [\d.]+ ms", out)
+    if "did not stop within" in out:  # a figure is still valid; the hang is shown, not hidden
+        warnings.warn(out[out.index("note:"):], stacklevel=1)
 
 
 def test_pass_benchmark_prints_steps_per_second_and_ratio(capsys):

@@ -189,8 +189,8 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
 
     predictions = ros.collect(LoadPrediction, "/live/load_predictor/prediction", 200, publishers=1)
     pub = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: 1234.5}",
-                 "--times", "3", "--rate", "10")
-    assert pub.returncode == 0, pub.stderr
+                 "--times", "3", "--rate", "10", "--wait", "15")
+    assert pub.returncode == 0 and "no subscriber" not in pub.stderr, pub.stdout + pub.stderr
     wait_until(lambda: sum(m.measurement == 1234.5 for m in list(predictions)) == 3, 10.0,
                what="the three published values to reach the predictor")
     bad = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: high}")

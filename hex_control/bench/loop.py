@@ -8,6 +8,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -17,6 +18,7 @@ from pathlib import Path
 from hex_control.bench import benchmark, best_time
 from hex_control.control.force_law import PIForceLaw
 from hex_control.control.pi import TustinPI
+from hex_control.nodes.graph import stop_hung
 from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
 
 GAINS = ("-p", "kp_mm_per_n:=0.0098", "-p", "ki_mm_per_n_s:=0.48")
@@ -29,18 +31,23 @@ def _script(name: str) -> str:
     return found
 
 
-def _run(plant_args: list[str], controller_args: list[str], wall_s: float, done=None) -> dict:
+def _run(plant_args: list[str], controller_args: list[str], wall_s: float, done=None) -> tuple[dict, list[str]]:
     """Start both nodes on a private domain, wait ``wall_s`` (or until ``done(report)``),
-    return the plant's last timing report."""
-    env = dict(os.environ, ROS_DOMAIN_ID=str(150 + os.getpid() % 80), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    return the plant's last timing report and a note for each node that did not stop in time."""
+    env = dict(os.environ, ROS_DOMAIN_ID=str(150 + os.getpid() % 80), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST",
+               PYTHONFAULTHANDLER="1")
     with tempfile.TemporaryDirectory() as folder:
         report_path = Path(folder) / "timing.json"
-        controller = subprocess.Popen([_script("hex-force-controller"), "--ros-args", "-p", "use_sim_time:=true",
-                                       "-p", "trigger:=measurement", *GAINS, *controller_args], env=env,
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        plant = subprocess.Popen([_script("hex-plant"), "--ros-args", "-p", f"report_file:={report_path}",
-                                  *plant_args], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        commands = {"hex-force-controller": ["--ros-args", "-p", "use_sim_time:=true", "-p", "trigger:=measurement",
+                                             *GAINS, *controller_args],
+                    "hex-plant": ["--ros-args", "-p", f"report_file:={report_path}", *plant_args]}
+        processes = {}
+        for name, args in commands.items():
+            with open(Path(folder) / f"{name}.log", "wb") as log:
+                processes[name] = subprocess.Popen([_script(name), *args], env=env, stdout=log,
+                                                   stderr=subprocess.STDOUT)
         report: dict = {}
+        notes: list[str] = []
         end = time.monotonic() + wall_s + 15.0  # start-up and discovery on top
         try:
             while time.monotonic() < end:
@@ -52,10 +59,12 @@ def _run(plant_args: list[str], controller_args: list[str], wall_s: float, done=
                     if done is None and report["cycles"] and report["cycles"] / report["loop_rate_hz"] >= wall_s:
                         break
         finally:
-            for process in (plant, controller):
-                process.terminate()
-                process.wait(timeout=10)
-    return report
+            for name in ("hex-plant", "hex-force-controller"):
+                processes[name].terminate()
+                if stop_hung(processes[name], timeout_s=10.0) in (-signal.SIGABRT, -signal.SIGKILL):
+                    tail = (Path(folder) / f"{name}.log").read_text(errors="replace").splitlines()[-40:]
+                    notes += [f"note: {name} did not stop within 10 s of SIGTERM; the end of its log:", *tail]
+    return report, notes
 
 
 @benchmark("loop")
@@ -69,16 +78,17 @@ def loop_over_ros(quick: bool) -> list[str]:
         simulate_force_loop(table, PIForceLaw(TustinPI(0.0098, 0.48, period, -2, 2)), lambda _t: 20.0, period, sim_s)
     baseline_hz = sim_s / period / best_time(in_process, repeat=3)
     lines = [f"in-process loop (no ROS), 5 ms period: {baseline_hz:12,.0f} cycles/s (baseline)"]
-    lockstep = _run(["-p", f"end_time_s:={sim_s}"], [], sim_s,
-                    done=lambda r: r["sim_time_s"] >= sim_s - 1e-9)
+    lockstep, notes = _run(["-p", f"end_time_s:={sim_s}"], [], sim_s,
+                           done=lambda r: r["sim_time_s"] >= sim_s - 1e-9)
     rate = lockstep.get("loop_rate_hz", math.nan)
     lines.append(f"lock-step over ROS, two processes, {sim_s:g} s of sim time: {rate:8,.0f} cycles/s "
                  f"(real-time factor {rate * period:.1f}x), ratio to in-process 1/{baseline_hz / rate:.0f}")
     for rate_hz in (200, 500):
         wall = 3.0 if quick else 15.0
-        report = _run(["-p", "mode:=realtime", "-p", f"control_period_s:={1 / rate_hz}"],
-                      ["-p", f"rate_hz:={float(rate_hz)}"], wall)
+        report, more_notes = _run(["-p", "mode:=realtime", "-p", f"control_period_s:={1 / rate_hz}"],
+                                  ["-p", f"rate_hz:={float(rate_hz)}"], wall)
+        notes += more_notes
         lines.append(f"real-time at {rate_hz} Hz: achieved {report.get('loop_rate_hz', math.nan):6.1f} Hz, "
                      f"missed {100 * report.get('missed_fraction', math.nan):5.2f} %, command latency "
                      f"p50 {report.get('latency_p50_ms', math.nan):.2f} ms p99 {report.get('latency_p99_ms', math.nan):.2f} ms")
-    return lines
+    return lines + notes
