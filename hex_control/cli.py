@@ -37,6 +37,10 @@ def _parser() -> argparse.ArgumentParser:
     predictor.add_argument("--rate", type=float, default=200.0, help="sample rate (Hz)")
     predictor.add_argument("--seed", type=int, default=7)
 
+    stats = commands.add_parser("job-stats", help="statistics over report directories of hexctl demo")
+    stats.add_argument("directories", nargs="+", help="report directories (a job's, or one with job_* inside)")
+    stats.add_argument("--output", default="", help="also write the statistics here (JSON)")
+
     workspace = commands.add_parser("workspace", help="workspace maps, slices and roll sweep (PNG, JSON)")
     workspace.add_argument("--machine", default="machines/nist_ingersoll.yaml",
                            help="machine YAML (path, or a name under config/)")
@@ -125,6 +129,23 @@ def _parser() -> argparse.ArgumentParser:
     pub.add_argument("-1", "--once", action="store_true", help="publish once")
     pub.add_argument("--wait", type=float, default=2.0, help="wait for a subscriber first (s)")
     return parser
+
+
+def _job_stats(args) -> int:
+    import json
+    from pathlib import Path
+
+    from hex_control.config import config_file
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.job_report import job_statistics, load_job_summaries
+
+    summaries = load_job_summaries(args.directories)
+    charges = load_planner_config(config_file("sequence_planner.yaml"))[1]
+    text = json.dumps(job_statistics(summaries, charges.deadline.tolerance_mm), indent=2)
+    print(text)
+    if args.output:
+        Path(args.output).write_text(text + "\n")
+    return 0
 
 
 def _workspace(args) -> int:
@@ -316,6 +337,8 @@ def main(argv=None) -> int:
             from hex_control.nodes.demo_load_predictor import run_demo
 
             return run_demo(args.output, args.samples, args.rate, args.seed)
+        if args.command == "job-stats":
+            return _job_stats(args)
         if args.command == "workspace":
             return _workspace(args)
         if args.command == "sdp":

@@ -8,8 +8,8 @@ import math
 import matplotlib.pyplot as plt
 import pytest
 
-from hex_control.grinding.job_report import (JobRecord, job_statistics, specific_energy_by_pass, strut_figure,
-                                             write_report)
+from hex_control.grinding.job_report import (JobRecord, job_statistics, load_job_summaries, specific_energy_by_pass,
+                                             strut_figure, write_report)
 
 
 @pytest.mark.parametrize("names, labels", [
@@ -43,6 +43,22 @@ def test_statistics_count_the_band_and_compare_the_charge_with_j():
     assert stats["charge_standard_error"] == pytest.approx(1.0 / math.sqrt(3))  # sample std 1
     assert stats["charge_minus_expected_in_standard_errors"] == pytest.approx(0.5 * math.sqrt(3))
     assert stats["jobs_charged"] == 2
+
+
+def test_batches_run_apart_are_pooled_from_their_report_directories(tmp_path):
+    batches = {"a": [_summary("done", 0.01, 0.0), _summary("done", 0.02, 1.0)], "b": [_summary("quit", 0.04, 2.0)]}
+    for batch, summaries in batches.items():
+        for k, summary in enumerate(summaries):
+            (tmp_path / batch / f"job_{k:03d}").mkdir(parents=True)
+            (tmp_path / batch / f"job_{k:03d}" / "job.json").write_text(json.dumps(summary))
+    single = tmp_path / "single"
+    single.mkdir()
+    (single / "job.json").write_text(json.dumps(_summary("aborted", 0.3, 5.0)))
+    pooled = load_job_summaries([tmp_path / "a", tmp_path / "b", single])
+    assert [s["outcome"]["total_charge"] for s in pooled] == [0.0, 1.0, 2.0, 5.0]
+    assert job_statistics(pooled, 0.025)["reasons"] == {"done": 2, "quit": 1, "aborted": 1}
+    with pytest.raises(ValueError, match="no job.json"):
+        load_job_summaries([tmp_path])
 
 
 def test_each_k1_prediction_is_matched_to_the_pass_result_it_follows():

@@ -1,27 +1,26 @@
 """Node pass_planner over real processes: PassCommand + Contour in, ForceTrajectory and the
 tool path out; refused commands give a reason and nothing else."""
 
+import dataclasses
 import math
 import re
 import time
 
 import numpy as np
 import pytest
+import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-import dataclasses
-
-import yaml
-
 from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
-from hex_control.grinding.pass_plan import plan_forces
 from hex_control.grinding.contour import weld_bead
+from hex_control.grinding.pass_plan import plan_forces
 from hex_control.nodes.interfaces import RESULTS, contour_to_message
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
 from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+from hex_control_msgs.srv import TestPose
 from ros_harness import wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -126,6 +125,8 @@ def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, 
     config["bead_frame"]["origin_mm"] = [-75.0, 0.0, 0.0]
     (tmp_path / "far.yaml").write_text(yaml.safe_dump(config))
     spawn(["hex-kinematics"])
+    # the refusal is under test, not a slow start: the planner waits only contour_wait_s for the service
+    ros.wait_for_service(ros.node("reach_probe").create_client(TestPose, "/kinematics/test_pose"), 60.0)
     publishers, outputs = start_planner(ros, spawn, "-p", f"config:={tmp_path / 'far.yaml'}")
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
     publishers["command"].publish(_command())

@@ -154,6 +154,19 @@ def _plot_struts(record: JobRecord, path: Path) -> None:
         save(strut_figure(record), path, dpi=100)
 
 
+def load_job_summaries(directories: list[Path]) -> list[dict]:
+    """The ``job.json`` of each report directory given, or of each ``job_*`` inside one
+    (``hexctl demo --jobs N``), in name order: batches run apart are pooled this way."""
+    summaries = []
+    for directory in map(Path, directories):
+        files = [directory / "job.json"] if (directory / "job.json").exists() else \
+            sorted(directory.glob("job_*/job.json"))
+        if not files:
+            raise ValueError(f"no job.json in {directory} or in its job_* directories")
+        summaries += [json.loads(f.read_text()) for f in files]
+    return summaries
+
+
 def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
     """Over many jobs: the final material, charges against the start policy's expected
     penalty (mean and its standard error), overgrinding beyond the tolerance, burn."""
