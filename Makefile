@@ -40,7 +40,7 @@ demo: setup
 	$(VENV)/bin/hexctl demo
 
 test: setup
-	$(PY) -m pytest -q test
+	$(PY) -m pytest -q --durations=20 test
 
 bench: setup
 	$(VENV)/bin/hexctl bench

@@ -66,10 +66,13 @@ def test_cut_depth_spread_eq_4_9(source):
     assert model.std_mm(TYPICAL, force, feed) == pytest.approx(abs(shifted - base) / r * 0.1, rel=1e-5)
 
 
+U = (np.arange(40_000) + 0.5) / 40_000  # equal-probability points
+
+
 @pytest.mark.parametrize("pdf", ["normal", "lognormal", "rayleigh"])
 def test_pdfs_have_the_requested_mean_and_variance(pdf):
     """Table 4-1 shapes with the mean and standard deviation the model asks for."""
-    nodes = CutDepthModel(pdf=pdf, quadrature_nodes=40_000).quantiles(0.4, 0.06)
+    nodes = CutDepthModel(pdf=pdf).ppf(0.4, 0.06, U)
     assert nodes.mean() == pytest.approx(0.4, rel=2e-3)
     assert nodes.std() == pytest.approx(0.06, rel=2e-2)
     if pdf != "normal":
@@ -83,5 +86,24 @@ def test_rayleigh_shift_or_scale_rule():
     assert shift > 0 and sigma == pytest.approx(0.06 / math.sqrt(2 - math.pi / 2))
     sigma, shift = rayleigh_parameters(0.02, 0.06)
     assert shift == 0 and sigma * math.sqrt(math.pi / 2) == pytest.approx(0.02)
-    small = CutDepthModel(quadrature_nodes=40_000).quantiles(0.02, 0.06)
+    small = CutDepthModel().ppf(0.02, 0.06, U)
     assert small.mean() == pytest.approx(0.02, rel=2e-3) and small.std() < 0.06
+
+
+@pytest.mark.parametrize("pdf", ["normal", "lognormal", "rayleigh"])
+@pytest.mark.parametrize("mean, std", [(0.4, 0.06), (0.02, 0.06), (0.05, 0.0)])
+def test_the_integrated_cdf_is_the_expected_shortfall(pdf, mean, std):
+    """G(a) = E[(a - delta)+], checked against the quantile function integrated numerically;
+    its slope is the CDF (G(ppf(u))' = u) and it tends to a - mean far right."""
+    model = CutDepthModel(pdf=pdf)
+    depths = model.ppf(mean, std, U)
+    for a in (-0.1, 0.0, mean - std, mean, mean + 2 * std, mean + 8 * std + 0.01):
+        shortfall = np.mean(np.maximum(a - depths, 0.0))
+        assert model.integrated_cdf(mean, std, a) == pytest.approx(shortfall, rel=1e-3, abs=1e-7)
+    if std > 0:
+        for u in (0.1, 0.5, 0.9):
+            a, h = model.ppf(mean, std, u), 1e-6
+            slope = (model.integrated_cdf(mean, std, a + h) - model.integrated_cdf(mean, std, a - h)) / (2 * h)
+            assert slope == pytest.approx(u, abs=1e-4)
+    far = mean + 50 * max(std, 0.01)  # the log-normal of cv 3 still has 1e-5 of its shortfall beyond
+    assert model.integrated_cdf(mean, std, far) == pytest.approx(far - mean, rel=1e-4)

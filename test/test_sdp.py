@@ -58,10 +58,11 @@ def test_time_bands_one_shortest_pass_wide():
 
 def test_near_constant_cut_fraction_with_the_fastest_feed_below_the_threshold():
     """Section 5.4 rules 1-3: below the max-force threshold the optimal cut is a near-constant
-    fraction of the material (the thesis reports about 50-57 %; here about 65 % with these
-    charges and 15 % variation of C1), taken with the fastest feed; the fraction does not
-    grow with more time remaining."""
-    below = (X > 0.03) & (X < 0.10)
+    fraction of the material, taken with the fastest feed, smaller with more time remaining
+    (the thesis: 57 % in the band nearest the deadline, perhaps 49 % in the next; here 60 %
+    and 54 % with these charges and 15 % variation of C1). From 2.5 tolerances above the
+    target: nearer, the second-order effects of Fig. 5-19 lower the fraction."""
+    below = (X > 0.045) & (X < 0.105)
     fractions = []
     for t in (6.0, 12.0, 18.0):
         row = stage(t)
@@ -69,7 +70,7 @@ def test_near_constant_cut_fraction_with_the_fastest_feed_below_the_threshold():
         fraction = POLICY.cut_fraction[row, below]
         assert np.std(fraction) < 0.05
         fractions.append(np.mean(fraction))
-    assert 0.45 < fractions[0] < 0.8
+    assert 0.5 < fractions[0] < 0.65 and 0.45 < fractions[1] < 0.6
     assert fractions[0] >= fractions[1] >= fractions[2]
 
 
@@ -217,3 +218,26 @@ def test_monte_carlo_jobs_cost_what_the_policy_expects(t0, x0):
                         for _ in range(2000)])
     standard_error = charges.std() / math.sqrt(len(charges))
     assert abs(charges.mean() - policy.expected_penalty(t0, x0)) < 3 * standard_error + 0.005
+
+
+def test_the_shipped_planner_expects_what_its_jobs_cost():
+    """The shipped configuration at the demo's start state (150 mm bead, 60 s, 0.936 mm,
+    t_R 4.2 s): 3000 jobs simulated on the planner's own model cost J(t0, X0) within
+    3 standard errors plus the lookup's interpolation error (0.02 on a 301-state grid, as
+    above; 10 000 jobs: J 0.0067, cost 0.018 +- 0.003; on 601 states 0.0080 against
+    0.011 +- 0.002 at 5-10x the solve time). With a 32-node quadrature of the cut PDF
+    J was 0.0005 and the jobs cost 0.21 +- 0.01."""
+    import dataclasses
+
+    from hex_control.config import config_file
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.rollout import run_job
+
+    process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
+    process = dataclasses.replace(process, bead_length_mm=150.0, reset_time_s=4.2)
+    t0, x0 = 60.0, 0.936
+    policy = solve(process, charges, grid.covering(t0, x0), cut_model)
+    rng = np.random.default_rng(1)
+    costs = np.array([run_job(policy, process, charges, cut_model, t0, x0, rng).total_charge for _ in range(3000)])
+    standard_error = costs.std() / math.sqrt(len(costs))
+    assert abs(costs.mean() - policy.expected_penalty(t0, x0)) < 3 * standard_error + 0.02

@@ -104,14 +104,14 @@ def charges_from_dict(data: dict) -> Charges:
 @dataclass(frozen=True)
 class Controls:
     """The control set: forces (n_F,), pass durations in stages (n_V,), feeds (n_V,),
-    feasibility (n_F, n_V), mean cut depth and its quadrature nodes (n_F, n_V, n_q)."""
+    feasibility (n_F, n_V), mean cut depth and its standard deviation (n_F, n_V) in mm."""
 
     forces_n: np.ndarray
     duration_stages: np.ndarray
     feeds_mm_s: np.ndarray
     feasible: np.ndarray
     mean_cut_mm: np.ndarray
-    cut_nodes_mm: np.ndarray
+    cut_std_mm: np.ndarray
 
 
 def build_controls(process: GrindingProcess, grid: PlannerGrid, cut_model: CutDepthModel) -> Controls:
@@ -129,23 +129,35 @@ def build_controls(process: GrindingProcess, grid: PlannerGrid, cut_model: CutDe
     forces = np.linspace(f0 + (process.force_max_n - f0) / grid.forces, process.force_max_n, grid.forces)
     force_grid, feed_grid = np.meshgrid(forces, feeds, indexing="ij")
     mean = process.cut_depth_mm(force_grid, feed_grid)
-    nodes = cut_model.quantiles(mean, cut_model.std_mm(process, force_grid, feed_grid))
-    return Controls(forces, durations, feeds, process.feasible(force_grid, feed_grid), mean, nodes)
+    std = np.broadcast_to(cut_model.std_mm(process, force_grid, feed_grid), mean.shape)
+    return Controls(forces, durations, feeds, process.feasible(force_grid, feed_grid), mean, std)
 
 
-def _kernels(nodes_mm: np.ndarray, step_mm: float):
+TAIL = 1e-12  # probability left out at each end of a kernel
+
+
+def transition_offsets(cut_model: CutDepthModel, mean_mm, std_mm, step_mm: float) -> np.ndarray:
+    """Offsets m (in material steps) that a cut can move the state by: every m whose hat
+    function overlaps the cut-depth range between the TAIL and 1 - TAIL quantiles."""
+    low = np.floor(np.min(cut_model.ppf(mean_mm, std_mm, TAIL)) / step_mm) - 1
+    high = np.ceil(np.max(cut_model.ppf(mean_mm, std_mm, 1 - TAIL)) / step_mm) + 1
+    return np.arange(int(low), int(high) + 1)
+
+
+def transition_weights(cut_model: CutDepthModel, mean_mm, std_mm, step_mm: float, offsets) -> np.ndarray:
+    """P-weights w[..., m] with E[J(X_i - delta)] = sum_m w[m] J_(i-m) for J linear between
+    nodes ``step_mm`` apart: E[hat(m h - delta)] from the integrated CDF (exact)."""
+    h = step_mm
+    mean, std = np.asarray(mean_mm, float)[..., None], np.asarray(std_mm, float)[..., None]
+    g = cut_model.integrated_cdf(mean, std, np.concatenate([offsets[:1] - 1, offsets, offsets[-1:] + 1]) * h)
+    return (g[..., 2:] - 2 * g[..., 1:-1] + g[..., :-2]) / h
+
+
+def _kernels(cut_model: CutDepthModel, mean_mm: np.ndarray, std_mm: np.ndarray, step_mm: float):
     """Per-control correlation kernels for one feed: (k_low, K (n_F, n_k)) such that
     E[J(X_i - delta)] = sum_k K[f, k] J[i - k_low - k] with linear interpolation of J."""
-    shift = nodes_mm / step_mm
-    whole = np.floor(shift).astype(int)
-    frac = shift - whole
-    low, high = int(whole.min()), int(whole.max()) + 1
-    kernel = np.zeros((nodes_mm.shape[0], high - low + 1))
-    weight = 1.0 / nodes_mm.shape[-1]
-    rows = np.repeat(np.arange(nodes_mm.shape[0]), nodes_mm.shape[-1])
-    np.add.at(kernel, (rows, (whole - low).ravel()), ((1 - frac) * weight).ravel())
-    np.add.at(kernel, (rows, (whole - low + 1).ravel()), (frac * weight).ravel())
-    return low, kernel
+    offsets = transition_offsets(cut_model, mean_mm, std_mm, step_mm)
+    return int(offsets[0]), transition_weights(cut_model, mean_mm, std_mm, step_mm, offsets)
 
 
 @dataclass
@@ -230,7 +242,8 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     # per feed: Toeplitz gather indices and kernels of all forces
     per_feed = []
     for v, duration in enumerate(controls.duration_stages):
-        low, kernel = _kernels(controls.cut_nodes_mm[:, v], grid.material_step_mm)
+        low, kernel = _kernels(cut_model, controls.mean_cut_mm[:, v], controls.cut_std_mm[:, v],
+                               grid.material_step_mm)
         offsets = low + np.arange(kernel.shape[1])
         gather = np.clip(np.arange(n_x)[:, None] - offsets[None, :], 0, n_x - 1)
         per_feed.append((int(duration), gather, kernel, controls.feasible[:, v]))

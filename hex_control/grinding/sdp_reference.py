@@ -1,14 +1,15 @@
 """Brute-force backward induction: the SDP of :mod:`hex_control.grinding.sdp` as plain loops
 over stages, states, forces and feeds, with np.interp for J. Independent of the kernel /
-Toeplitz machinery; same grid, same controls, same quadrature nodes (transition
-probabilities) and the same tie rule. For cross-checks on small grids and as the
+Toeplitz machinery; same grid, same controls, same transition weights (the exact
+expectation over J linear between nodes) and the same tie rule. For cross-checks on small grids and as the
 benchmark baseline."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from hex_control.grinding.sdp import GRIND, QUIT, WAIT, Charges, PlannerGrid, build_controls
+from hex_control.grinding.sdp import (GRIND, QUIT, WAIT, Charges, PlannerGrid, build_controls, transition_offsets,
+                                      transition_weights)
 
 
 def solve_reference(process, charges: Charges, grid: PlannerGrid, cut_model) -> tuple[np.ndarray, np.ndarray]:
@@ -19,6 +20,13 @@ def solve_reference(process, charges: Charges, grid: PlannerGrid, cut_model) -> 
     penalty = np.zeros((len(times), len(x)))
     action = np.zeros((len(times), len(x)), int)
     no_grind_after = np.ones((len(times), len(x)))
+    step = x[1] - x[0]
+    transitions = {}  # (f, v) -> (state indices i - m clamped to the grid, for each i; weights)
+    for f in range(len(controls.forces_n)):
+        for v in range(len(controls.feeds_mm_s)):
+            mean, std = controls.mean_cut_mm[f, v], controls.cut_std_mm[f, v]
+            offsets = transition_offsets(cut_model, mean, std, step)
+            transitions[f, v] = (offsets, transition_weights(cut_model, mean, std, step, offsets))
     for k in range(len(times)):
         for i, xi in enumerate(x):
             stop = charges.deadline(xi) + (charges.lateness(-times[k]) if late else 0.0)
@@ -35,11 +43,12 @@ def solve_reference(process, charges: Charges, grid: PlannerGrid, cut_model) -> 
                 for v, duration in enumerate(controls.duration_stages):
                     if not controls.feasible[f, v] or k - duration < 0:
                         continue
-                    after = xi - controls.cut_nodes_mm[f, v]
-                    value = np.mean(np.interp(after, x, penalty[k - duration])) + charges.in_path.per_pass
+                    offsets, weights = transitions[f, v]
+                    after = np.clip(i - offsets, 0, len(x) - 1)  # J constant beyond the grid's ends
+                    value = float(weights @ penalty[k - duration, after]) + charges.in_path.per_pass
                     if charges.in_path.surface_finish_per_mm_s > 0:
                         value += (charges.in_path.surface_finish_per_mm_s * controls.feeds_mm_s[v]
-                                  * np.mean(np.interp(after, x, no_grind_after[k - duration])))
+                                  * float(weights @ no_grind_after[k - duration, after]))
                     best = min(best, value)
             tie = 1e-12 * max(1.0, abs(idle))
             grinds = best <= idle + tie if xi > charges.deadline.tolerance_mm else best < idle - tie

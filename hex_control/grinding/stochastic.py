@@ -17,8 +17,12 @@ PDF of the cut depth with that mean m and standard deviation s:
                   when its own mean sigma_R sqrt(pi/2) is below m (mean and variance
                   independent); otherwise scaled down to mean m with its origin at zero cut
                   depth (variance then tied to the mean).
-The expectation of eq. 5.3 is taken by equal-probability quadrature: the n nodes are the
-distribution's quantiles at (j + 1/2)/n, each of weight 1/n.
+The expectation of eq. 5.3 over J interpolated linearly between material nodes is taken
+exactly, from the integrated CDF G(a) = E[(a - delta)+] (:meth:`CutDepthModel.integrated_cdf`).
+An equal-probability quadrature (n nodes at the quantiles (j + 1/2)/n) is not enough: the
+optimisation places its last passes so that overgrinding lies beyond the outermost node,
+where the quadrature sees no probability -- with 32 nodes the policy's J at the start of
+the shipped job was 0.0005 while simulating that policy on this same model cost 0.21.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import ndtri
+from scipy.special import erf, ndtr, ndtri
 
 from hex_control.grinding.model import GrindingProcess
 
@@ -44,7 +48,6 @@ class CutDepthModel:
     source: str = "c1"
     relative_variation: float = 0.15
     pdf: str = "rayleigh"
-    quadrature_nodes: int = 32
 
     def __post_init__(self):
         if self.source not in SOURCES:
@@ -53,8 +56,6 @@ class CutDepthModel:
             raise ValueError(f"pdf must be one of {PDFS}, got {self.pdf!r}")
         if not (0 <= self.relative_variation < 1):
             raise ValueError(f"relative_variation must be in [0, 1), got {self.relative_variation}")
-        if self.quadrature_nodes < 1:
-            raise ValueError("quadrature_nodes must be >= 1")
 
     def std_mm(self, process: GrindingProcess, force_n, feed_mm_s):
         """sigma_delta of eq. 4.9a-c (mm)."""
@@ -68,11 +69,6 @@ class CutDepthModel:
         mu = process.friction_coefficient
         return (process.c1 * process.disk_speed(force_n) * process.disk_radius_mm * force_n
                 * self.relative_variation * mu / (process.bead_width_mm * feed_mm_s))
-
-    def quantiles(self, mean_mm, std_mm) -> np.ndarray:
-        """Equal-probability nodes of the cut-depth PDF, shape (..., quadrature_nodes)."""
-        u = (np.arange(self.quadrature_nodes) + 0.5) / self.quadrature_nodes
-        return self.ppf(np.asarray(mean_mm, float)[..., None], np.asarray(std_mm, float)[..., None], u)
 
     def sample(self, mean_mm: float, std_mm: float, rng: np.random.Generator) -> float:
         """One cut depth drawn from the PDF (for Monte-Carlo rollouts of a policy)."""
@@ -88,6 +84,34 @@ class CutDepthModel:
             nodes = np.exp(np.log(safe_mean) - sigma2 / 2 + np.sqrt(sigma2) * ndtri(u))
             return np.where(mean > 0, nodes, 0.0)
         return rayleigh_quantiles(mean, std, u)
+
+    def integrated_cdf(self, mean, std, a):
+        """G(a) = E[(a - delta)+] = integral of the CDF up to ``a`` (mm), broadcasting.
+
+        For J linear between nodes h apart, E[J(X - delta)] = sum_j J_j E[hat_j(X - delta)]
+        and E[hat(z - delta)] = (G(z + h) - 2 G(z) + G(z - h)) / h: exact, tails included.
+        """
+        mean, std, a = (np.asarray(v, float) for v in (mean, std, a))
+        certain = np.maximum(a - mean, 0.0)  # std 0: delta = mean
+        safe_std = np.where(std > 0, std, 1.0)
+        if self.pdf == "normal":
+            z = (a - mean) / safe_std
+            value = (a - mean) * ndtr(z) + safe_std * np.exp(-z * z / 2) / math.sqrt(2 * math.pi)
+        elif self.pdf == "lognormal":
+            # E[(a - delta)+] of a log-normal: the put-option formula
+            safe_mean = np.maximum(mean, 1e-300)
+            s = np.sqrt(np.log1p((safe_std / safe_mean) ** 2))
+            log_a = np.log(np.maximum(a, 1e-300))
+            d = (log_a - np.log(safe_mean) + s * s / 2) / s
+            value = np.where(a > 0, a * ndtr(d) - safe_mean * ndtr(d - s), 0.0)
+            value = np.where(mean > 0, value, certain)
+        else:
+            sigma, shift = rayleigh_parameters(mean, safe_std)
+            r = np.maximum((a - shift) / np.where(sigma > 0, sigma, 1.0), 0.0)
+            # integral_0^r (1 - exp(-u^2/2)) du
+            value = sigma * (r - math.sqrt(math.pi / 2) * erf(r / math.sqrt(2)))
+            value = np.where(sigma > 0, value, certain)
+        return np.where(std > 0, value, certain)
 
 
 def rayleigh_parameters(mean_mm, std_mm):
