@@ -146,8 +146,8 @@ class NodeProcess:
         return self.process.poll() is None
 
     def stop(self, timeout_s: float = 10.0, dump: bool = False) -> int:
-        """SIGINT (``dump``: SIGABRT at once, for every thread's traceback in the log; so
-        does a node that has not stopped ``timeout_s`` after SIGINT)."""
+        """SIGINT (``dump``: at once SIGUSR1 then SIGABRT, for every thread's traceback in
+        the log; so does a node that has not stopped ``timeout_s`` after SIGINT)."""
         if self.alive():
             if not dump:
                 self.process.send_signal(signal.SIGINT)

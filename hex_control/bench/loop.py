@@ -61,7 +61,7 @@ def _run(plant_args: list[str], controller_args: list[str], wall_s: float, done=
         finally:
             for name in ("hex-plant", "hex-force-controller"):
                 processes[name].terminate()
-                if stop_hung(processes[name], timeout_s=10.0) in (-signal.SIGABRT, -signal.SIGKILL):
+                if stop_hung(processes[name], timeout_s=10.0) in (-signal.SIGUSR1, -signal.SIGABRT, -signal.SIGKILL):
                     tail = (Path(folder) / f"{name}.log").read_text(errors="replace").splitlines()[-40:]
                     notes += [f"note: {name} did not stop within 10 s of SIGTERM; the end of its log:", *tail]
     return report, notes

@@ -81,10 +81,15 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
 
 
 def stop_hung(process: subprocess.Popen, timeout_s: float) -> int:
-    """Wait ``timeout_s`` for a process told to stop; then SIGABRT (with PYTHONFAULTHANDLER
-    set, a Python process dumps every thread's traceback first) and SIGKILL. Exit code."""
+    """Wait ``timeout_s`` for a process told to stop; then SIGUSR1 (a node dumps every
+    thread's traceback, :func:`hex_control.nodes.runtime.init`), SIGABRT (with
+    PYTHONFAULTHANDLER set, any Python process dumps what it can) and SIGKILL. Exit code."""
     try:
         return process.wait(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        process.send_signal(signal.SIGUSR1)
+    try:
+        return process.wait(timeout=1.0)
     except subprocess.TimeoutExpired:
         process.send_signal(signal.SIGABRT)
     try:

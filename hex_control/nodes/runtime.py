@@ -7,6 +7,7 @@ on, seen once in about 100 starts)."""
 
 from __future__ import annotations
 
+import faulthandler
 import signal
 import sys
 import threading
@@ -27,7 +28,10 @@ def stop_on_signals() -> threading.Event:
 
 
 def init(args=None) -> threading.Event:
-    """Install the stop handlers, then init rclpy without its own; the stop event."""
+    """Install the stop handlers, then init rclpy without its own; the stop event. SIGUSR1
+    writes every thread's traceback to stderr (a hung node says where, whichever thread the
+    signal lands on: a fatal-signal dump taken on a DDS thread showed no Python frames)."""
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     stop = stop_on_signals()
     rclpy.init(args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO)
     return stop
