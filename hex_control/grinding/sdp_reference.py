@@ -1,8 +1,8 @@
 """Brute-force backward induction: the SDP of :mod:`hex_control.grinding.sdp` as plain loops
 over stages, states, forces and feeds, with np.interp for J. Independent of the kernel /
 Toeplitz machinery; same grid, same controls, same transition weights (the exact
-expectation over J linear between nodes) and the same tie rule. For cross-checks on small grids and as the
-benchmark baseline."""
+expectation over J linear between nodes) and the same tie rule. For cross-checks on small
+grids and as the benchmark baseline."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def solve_reference(process, charges: Charges, grid: PlannerGrid, cut_model) -> 
     action = np.zeros((len(times), len(x)), int)
     no_grind_after = np.ones((len(times), len(x)))
     step = x[1] - x[0]
-    transitions = {}  # (f, v) -> (state indices i - m clamped to the grid, for each i; weights)
+    transitions = {}  # (f, v) -> (offsets m in material steps, their weights)
     for f in range(len(controls.forces_n)):
         for v in range(len(controls.feeds_mm_s)):
             mean, std = controls.mean_cut_mm[f, v], controls.cut_std_mm[f, v]
