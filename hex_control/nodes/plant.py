@@ -8,7 +8,10 @@ Modes (``mode``):
   as the graph allows. Until the first command arrives the state is re-sent every
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
-  with the latest command; a period whose measurement went unanswered is a missed cycle.
+  with the latest command; a period whose measurement went unanswered is a missed cycle. A
+  late timer tick steps the periods it owes (:mod:`hex_control.plant.pacing`), so sim time
+  keeps pace with the wall clock on a busy machine; late ticks and periods given up are
+  reported.
 - Either way, force commands older than ``command_timeout_s`` (sim time) drive the table
   to its retract stop ``retract_mm`` (the amplifier's own watchdog: a dead controller cannot
   keep pushing; the stop is far enough back to lift the disk off work that the tool path
@@ -80,6 +83,7 @@ from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.loop_timing import LoopTiming
+from hex_control.plant.pacing import RealTimePacer
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.pru3_machine import Pru3Machine
@@ -164,7 +168,8 @@ class PlantNode(Node):
             self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
             self.contour_publisher.publish(contour_to_message(cell.contour, "", 0, cell.width_mm))
         if self.mode == "realtime":
-            self.create_timer(self.period_s / p("real_time_factor"), self._advance)
+            self.pacer = RealTimePacer(self.period_s, p("real_time_factor"))
+            self.create_timer(self.period_s / p("real_time_factor"), self._realtime_tick)
         else:
             self.create_timer(p("lockstep_timeout_s") / 4, self._lockstep_watchdog)
             self.create_timer(self.period_s / p("real_time_factor"), self._free_run)
@@ -293,6 +298,10 @@ class PlantNode(Node):
         self.free_running = True
         self._advance()
 
+    def _realtime_tick(self) -> None:
+        for _ in range(self.pacer.due(time.monotonic())):
+            self._advance()
+
     def _free_run(self) -> None:
         if self.free_running:
             self._advance()
@@ -326,6 +335,9 @@ class PlantNode(Node):
         report = {"sim_time_s": self.sim.time_s, "cycles": self.timing.cycles,
                   "loop_rate_hz": self.timing.cycles / wall if wall > 0 else math.nan,
                   "missed_fraction": self.timing.missed_fraction, "latency_p50_ms": p50, "latency_p99_ms": p99}
+        if self.mode == "realtime":
+            report.update(late_ticks=self.pacer.late_ticks, dropped_periods=self.pacer.dropped,
+                          real_time_lag_ms=self.pacer.lag_s(time.monotonic()) * 1e3)
         for name, value in report.items():
             self.diagnostics.set(name, f"{value:.4g}")
         path = self.get_parameter("report_file").value
