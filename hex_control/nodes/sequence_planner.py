@@ -91,6 +91,7 @@ class SequencePlannerNode(Node):
         self.goal_handle = None
         self.results: dict[bytes, GrindBead.Result] = {}
         self.model_update: PassModelUpdate | None = None
+        self.last_solve_ms = math.nan  # wall time of the latest policy solve
         self._sent_at = None
         self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
         self._last_prediction_stamp = None
@@ -113,7 +114,8 @@ class SequencePlannerNode(Node):
                                       bead_length_mm=goal.bead_length_mm)
         start = time.perf_counter()
         policy = solve(process, self.charges, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model)
-        self.diagnostics.set("last_solve_ms", f"{1000 * (time.perf_counter() - start):.1f}")
+        self.last_solve_ms = 1000 * (time.perf_counter() - start)
+        self.diagnostics.set("last_solve_ms", f"{self.last_solve_ms:.1f}")
         self.diagnostics.count("solves")
         return process, policy
 
@@ -157,7 +159,8 @@ class SequencePlannerNode(Node):
         self.job = GrindingJob(goal, policy, charges, self.job_dir / f"{goal.job_id}.jsonl")
         self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
         self.goal_handle = goal_handle
-        self.get_logger().info(f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s")
+        self.get_logger().info(f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s, "
+                               f"policy solved in {self.last_solve_ms:.0f} ms")
         self._advance()
 
     def _reject(self, goal_handle, reason: str) -> None:
@@ -270,7 +273,8 @@ class SequencePlannerNode(Node):
             if self.model_update.observe(msg.prediction):
                 _, self.job.policy = self._policy_for(self.job.goal, self.model_update.process)
                 self.model_update.mark_solved()
-                self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved")
+                self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved in "
+                                       f"{self.last_solve_ms:.0f} ms")
             self.job.update_model(msg.prediction, self.model_update.solved_with)
         self._last_prediction_stamp = _stamp_ns(msg.header.stamp)
         if self._awaited_stamp and self._awaited_stamp[0] == self._last_prediction_stamp:
