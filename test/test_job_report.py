@@ -65,16 +65,19 @@ def test_each_k1_prediction_is_matched_to_the_pass_result_it_follows():
     record = JobRecord(results={0: {"specific_energy_j_mm3": 8.3, "stamp_s": 21.84},
                                 1: {"specific_energy_j_mm3": 12.9, "stamp_s": 29.68},
                                 2: {"specific_energy_j_mm3": math.nan, "stamp_s": 37.52}},  # nothing removed
-                       k1_predictions=[(29.68, 10.8), (21.84, 8.6), (5.0, 99.0)])  # out of order; a stray one
+                       k1_predictions=[(29.68, 10.8, 0.7), (21.84, 8.6, 0.2), (5.0, 99.0, 1.0)])  # out of order; a stray one
     rows = specific_energy_by_pass(record)
     assert [r[:2] for r in rows[:2]] == [(0, 8.3), (1, 12.9)]
-    assert [r[2] for r in rows[:2]] == [8.6, 10.8]
+    assert [r[2:] for r in rows[:2]] == [(8.6, 0.2), (10.8, 0.7)]
     assert math.isnan(rows[2][1]) and math.isnan(rows[2][2])  # the predictor refused the NaN
+    for result in record.results.values():
+        result.update(burn=False, stall=False)
+    assert record.summary()["dulling_detected_after_pass"] == 1  # the first P(dulls) above one half
 
 
 def test_report_of_a_record_writes_its_json_and_k1_plot(tmp_path):
     result = {"specific_energy_j_mm3": 8.3, "stamp_s": 21.84, "burn": False, "stall": False}
-    record = JobRecord(results={0: result}, k1_predictions=[(21.84, 8.6)],
+    record = JobRecord(results={0: result}, k1_predictions=[(21.84, 8.6, 0.05)],
                        outcome={"reason": "done", "total_charge": 0.0})
     summary = write_report(record, tmp_path)
     assert summary["passes"][0]["specific_energy_j_mm3"] == 8.3

@@ -14,6 +14,7 @@ from rclpy.parameter import Parameter
 from std_msgs.msg import Float64
 
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, expected_skill, skill_score
+from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.estimation.kalman import steady_state_variance
 from hex_control.nodes.load_predictor import LoadPredictorNode
 from hex_control_msgs.msg import LoadPrediction
@@ -86,6 +87,35 @@ def test_parameters_are_validated_and_applied(ros):
     publisher.publish(Float64(data=1.0))
     msg = wait_until(lambda: predictions and predictions[0], 10.0, what="a prediction")
     assert msg.model_w == 2.0 and msg.model_a == MODEL.a
+
+
+def test_a_drifting_load_is_predicted_and_flagged_like_the_library(ros):
+    """The pass-rate instance's drift model (config/load_predictor.yaml) on a disk whose K1
+    climbs 25 % a pass: each message carries the IMM's prediction and drift probability,
+    and /diagnostics counts the detection."""
+    drift = {"drift_rate_variance": 0.5, "drift_switch_probability": 0.05, "drift_initial_rate_variance": 4.0}
+    node = start_predictor(ros, "/t5", a=0.98, process_variance=0.5, measurement_variance=2.25, mean=10.0, **drift)
+    publisher, predictions, diagnostics = wired_source(ros, "/t5", Float64)
+    measured = [10.0 * 1.25 ** k for k in range(6)]
+    for value in measured:
+        publisher.publish(Float64(data=value))
+    wait_until(lambda: len(predictions) >= len(measured), 10.0, what="predictions")
+    reference = DriftingLoadPredictor(GaussMarkovModel(0.98, 0.5, 2.25), 10.0, 0.5, 0.05, 4.0)
+    for msg, value in zip(predictions, measured):
+        step = reference.step(value)
+        assert msg.prediction == pytest.approx(step.prediction, abs=1e-12)
+        assert msg.drift_probability == pytest.approx(step.drift_probability, abs=1e-12)
+        assert msg.drift_per_sample == pytest.approx(step.drift_per_sample, abs=1e-12)
+    assert predictions[1].drift_probability < 0.5 < predictions[3].drift_probability
+    assert predictions[-1].prediction > measured[-1]  # it predicts the climb, not a lagged mean
+    name = node.get_fully_qualified_name()
+    wait_until(lambda: diagnostic_values(diagnostics, name).get("drift_detected") == "1", 5.0,
+               what="the detection in /diagnostics")
+
+
+def test_a_drift_model_cannot_be_identified_online(ros):
+    with pytest.raises(ValueError, match="identify_window"):
+        start_predictor(ros, "/t6", drift_rate_variance=0.5, identify_window=100)
 
 
 def test_bad_input_field_is_refused_at_start(ros):

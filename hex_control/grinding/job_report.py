@@ -31,7 +31,8 @@ class JobRecord:
     force: list = field(default_factory=list)  # (t s, measured N)
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
     strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
-    k1_predictions: list = field(default_factory=list)  # (stamp s of the pass result it follows, K1 J/mm^3)
+    # (stamp s of the pass result it follows, K1 J/mm^3, probability that the disk dulls)
+    k1_predictions: list = field(default_factory=list)
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
 
@@ -53,6 +54,8 @@ class JobRecord:
                 "passes_in_order": results_in_order == list(range(len(results_in_order))),
                 "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
                 "graph_restarts": sum(kind == "graph_restart" for kind, _ in self.events),
+                "dulling_detected_after_pass": next((k for k, _, _, drift in specific_energy_by_pass(self)
+                                                     if drift > 0.5), None),
                 "burn": any(r["burn"] for r in self.results.values()),
                 "stall": any(r["stall"] for r in self.results.values())}
 
@@ -107,15 +110,15 @@ def _plot_force(record: JobRecord, path: Path) -> None:
     save(fig, path, dpi=100)
 
 
-def specific_energy_by_pass(record: JobRecord) -> list[tuple[int, float, float]]:
+def specific_energy_by_pass(record: JobRecord) -> list[tuple[int, float, float, float]]:
     """(pass k, K1 the plant measured on pass k, K1 the pass-rate predictor then predicted
-    for pass k + 1 -- NaN if none came), in J/mm^3. A prediction belongs to the pass result
-    whose stamp it carries."""
+    for pass k + 1, the probability it gave that the disk dulls) -- NaN where no prediction
+    came; K1 in J/mm^3. A prediction belongs to the pass result whose stamp it carries."""
     rows = []
     for k, result in sorted(record.results.items()):
-        predicted = [value for stamp, value in record.k1_predictions
+        predicted = [(value, drift) for stamp, value, drift in record.k1_predictions
                      if "stamp_s" in result and abs(stamp - result["stamp_s"]) < 1e-6]
-        rows.append((k, result["specific_energy_j_mm3"], predicted[-1] if predicted else math.nan))
+        rows.append((k, result["specific_energy_j_mm3"], *(predicted[-1] if predicted else (math.nan, math.nan))))
     return rows
 
 
@@ -123,7 +126,7 @@ def _plot_specific_energy(record: JobRecord, path: Path) -> None:
     rows = specific_energy_by_pass(record)
     if not rows:
         return
-    k, measured, predicted = (np.array(column, dtype=float) for column in zip(*rows))
+    k, measured, predicted, drift = (np.array(column, dtype=float) for column in zip(*rows))
     fig, ax = plt.subplots(figsize=(8, 4))
     ax.plot(k, measured, "o", color="tab:blue", label="measured on the pass (grinder energy / scanned volume)")
     ax.plot(k + 1, predicted, "s-", color="tab:red", label="predicted after the pass before (planned with)")
@@ -131,7 +134,14 @@ def _plot_specific_energy(record: JobRecord, path: Path) -> None:
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_ylabel("specific energy K1 (J/mm³)")
     ax.set_title("The disk's K1 per pass and the pass-rate predictor's estimate")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="upper left")
+    if np.isfinite(drift).any():
+        odds = ax.twinx()
+        odds.bar(k + 0.5, drift, width=0.3, color="tab:gray", alpha=0.4, label="P(the disk dulls) after pass k")
+        odds.axhline(0.5, color="tab:gray", ls=":", lw=0.8)
+        odds.set_ylim(0.0, 1.0)
+        odds.set_ylabel("P(the disk dulls)")
+        odds.legend(fontsize=8, loc="lower right")
     save(fig, path, dpi=100)
 
 

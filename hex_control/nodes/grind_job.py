@@ -93,7 +93,7 @@ class JobObserver(Node):
                                                              list(msg.normal_force_n))
 
     def _on_k1(self, msg: LoadPrediction) -> None:
-        self.record.k1_predictions.append((_seconds(msg.header.stamp), msg.prediction))
+        self.record.k1_predictions.append((_seconds(msg.header.stamp), msg.prediction, msg.drift_probability))
 
     def _on_job_result(self, msg) -> None:
         if self.job_id is not None:

@@ -11,7 +11,10 @@ Topics:
 
 The model (a, W, V, mean) is either fixed by parameters or, with ``identify_window`` > 0,
 re-identified by maximum likelihood over the last N samples every ``identify_every``
-samples, in a worker thread so that filtering never waits for it.
+samples, in a worker thread so that filtering never waits for it. With
+``drift_rate_variance`` > 0 the load may also start to drift (a disk that dulls): the
+predictor is then an IMM of that model and a drifting one
+(:mod:`hex_control.estimation.drift`), and says how likely the drift is.
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
+from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.messages import check_numeric_field, get_field, message_class
 from hex_control.nodes.runtime import run_node
@@ -54,11 +58,12 @@ class LoadPredictorNode(Node):
         self._valid_range = (p("valid_min").value, p("valid_max").value)
 
         self.diagnostics = Diagnostics(self, p("diagnostics_period_s").value)
-        self._predictor = OneStepPredictor(self._model_from_parameters(), p("mean").value)
         self._window = deque(maxlen=max(p("identify_window").value, 1))
         self._identify_every = p("identify_every").value or max(p("identify_window").value // 4, 1)
         self._since_identification = self._identify_every  # identify as soon as possible
         self._identifier = ThreadPoolExecutor(max_workers=1, thread_name_prefix="identify")
+        self._predictor = self._make_predictor()
+        self._drifting = False  # the drift probability is above one half
         self._identification = None
         self._last_stamp_ns = None
         self._publish_model_values()
@@ -97,12 +102,30 @@ class LoadPredictorNode(Node):
                 integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
         declare("identify_every", 0, "samples between identifications; 0 = window/4",
                 integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
+        declare("drift_rate_variance", 0.0, "variance of the drift's change per sample (load unit^2 per "
+                "sample^2); > 0 adds a drifting mode (IMM), 0 = seed 000's predictor alone",
+                floating_point_range=_float_range(0.0, 1e12), read_only=True)
+        declare("drift_switch_probability", 0.05, "probability per sample that the load starts or stops drifting",
+                floating_point_range=_float_range(1e-9, 0.4999), read_only=True)
+        declare("drift_initial_rate_variance", -1.0, "prior variance of the drift per sample (load unit^2 per "
+                "sample^2); < 0 = drift_rate_variance", read_only=True)
         declare("valid_min", -1e9, "measurements below this are rejected (load unit)", read_only=True)
         declare("valid_max", 1e9, "measurements above this are rejected (load unit)", read_only=True)
         declare("qos_depth", 100, "history depth of the input and output streams (samples)",
                 integer_range=[IntegerRange(from_value=1, to_value=10_000, step=1)], read_only=True)
         declare("diagnostics_period_s", 1.0, "period of /diagnostics (s)",
                 floating_point_range=_float_range(0.01, 60.0), read_only=True)
+
+    def _make_predictor(self) -> OneStepPredictor | DriftingLoadPredictor:
+        p = lambda name: self.get_parameter(name).value  # noqa: E731
+        if p("drift_rate_variance") <= 0:
+            return OneStepPredictor(self._model_from_parameters(), p("mean"))
+        if p("identify_window") > 0:
+            raise ValueError("drift_rate_variance > 0 and identify_window > 0: a drift is not a Gauss-Markov "
+                             "fluctuation to identify; use one or the other")
+        initial = p("drift_initial_rate_variance")
+        return DriftingLoadPredictor(self._model_from_parameters(), p("mean"), p("drift_rate_variance"),
+                                     p("drift_switch_probability"), None if initial < 0 else initial)
 
     def _model_from_values(self, values: dict) -> GaussMarkovModel:
         initial = values["initial_variance"]
@@ -141,6 +164,7 @@ class LoadPredictorNode(Node):
     def reset(self, reason: str) -> None:
         """Forget the filter state (not the model); the next sample starts afresh."""
         self._predictor.reset()
+        self._drifting = False
         self._window.clear()
         self._last_stamp_ns = None
         self.diagnostics.count("resets")
@@ -192,7 +216,20 @@ class LoadPredictorNode(Node):
         model = self._predictor.model
         out.model_a, out.model_w, out.model_v = model.a, model.process_variance, model.measurement_variance
         out.sample_count = self._predictor.sample_count
+        out.drift_probability = getattr(step, "drift_probability", 0.0)
+        out.drift_per_sample = getattr(step, "drift_per_sample", 0.0)
         self._publisher.publish(out)
+        if isinstance(self._predictor, DriftingLoadPredictor):
+            self._report_drift(step)
+
+    def _report_drift(self, step) -> None:
+        self.diagnostics.set("drift_probability", f"{step.drift_probability:.3f}")
+        drifting = step.drift_probability > 0.5
+        if drifting != self._drifting:
+            self._drifting = drifting
+            self.diagnostics.count("drift_detected" if drifting else "drift_ended")
+            self.get_logger().info(f"{self._quantity} {'drifts' if drifting else 'steady again'}: P(drift) "
+                                   f"{step.drift_probability:.2f}, {step.drift_per_sample:+.3g} per sample")
 
     # -- online identification -----------------------------------------------------------
     def _schedule_identification(self) -> None:
