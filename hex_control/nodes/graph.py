@@ -50,7 +50,9 @@ class NodeSpec:
     arguments: tuple[str, ...]  # after --ros-args
 
     def command(self) -> list[str]:
-        return [sys.executable, "-m", f"hex_control.nodes.{self.module}", "--ros-args", *self.arguments]
+        # -P: not the working directory's hex_control (a checkout there would shadow the
+        # installed one: a demo run from another clone started that clone's nodes)
+        return [sys.executable, "-P", "-m", f"hex_control.nodes.{self.module}", "--ros-args", *self.arguments]
 
 
 def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_overrides: dict | None = None,
