@@ -19,6 +19,7 @@ import dataclasses
 import math
 
 import numpy as np
+import yaml
 from scipy.optimize import brentq
 
 from hex_control.config import config_file
@@ -28,10 +29,14 @@ from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config
 from hex_control.grinding.sdp import solve
 
-PASS_MODEL = GaussMarkovModel(0.98, 0.5, 2.25)  # the pass-rate instance's model
+# the pass-rate instance as config/load_predictor.yaml sets it
+PASS = yaml.safe_load(config_file("load_predictor.yaml").read_text())["/load_predictor/pass"]["ros__parameters"]
+PASS_MODEL = GaussMarkovModel(PASS["a"], PASS["process_variance"], PASS["measurement_variance"])
 SCATTER = math.sqrt(math.log1p(0.15 ** 2))
-PREDICTORS = {"seed 000": lambda: OneStepPredictor(PASS_MODEL, 10.0),
-              "drift IMM": lambda: DriftingLoadPredictor(PASS_MODEL, 10.0, 0.5, 0.05, 4.0)}
+PREDICTORS = {"seed 000": lambda: OneStepPredictor(PASS_MODEL, PASS["mean"]),
+              "drift IMM": lambda: DriftingLoadPredictor(PASS_MODEL, PASS["mean"], PASS["drift_rate_variance"],
+                                                         PASS["drift_switch_probability"],
+                                                         PASS["drift_initial_rate_variance"])}
 
 
 def main() -> None:
