@@ -140,7 +140,8 @@ def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, 
 def test_a_lost_reachability_answer_is_asked_again(ros, spawn):
     """Fast DDS drops a service response to a client it has not matched yet; a stand-in
     TestPose server that answers the first request too late (the planner has given up on
-    it) shows the planner asks again and goes on with the second answer."""
+    it) shows the planner asks again and goes on with the second answer. The command
+    delivered again meanwhile (the sequence planner's resend) is not planned twice."""
     import time
 
     from hex_control_msgs.srv import TestPose
@@ -160,8 +161,11 @@ def test_a_lost_reachability_answer_is_asked_again(ros, spawn):
         publishers, outputs = start_planner(ros, spawn, "-p", "contour_wait_s:=8.0")
         publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
         publishers["command"].publish(_command())
+        wait_until(lambda: requests, 20.0, what="the first TestPose request")
+        publishers["command"].publish(_command())  # sent again while being checked: ignored
         wait_until(lambda: outputs["trajectory"], 20.0, what="the force trajectory")
+        time.sleep(3.0)  # time to plan and check a second time, were the second delivery taken
     finally:
         stand_in.close()
     assert len(requests) == 2 and requests[0] == requests[1] > 10
-    assert outputs["result"] == []  # not refused
+    assert len(outputs["trajectory"]) == 1 and outputs["result"] == []  # planned once, not refused

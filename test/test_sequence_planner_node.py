@@ -18,7 +18,7 @@ from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.stochastic import CutDepthModel
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control_msgs.action import GrindBead
-from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
 from ros_harness import wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -27,40 +27,49 @@ PROCESS, MODEL = GrindingProcess(), CutDepthModel()
 
 
 class PassExecutor:
-    """Stands in for pass planner + plant: answers each command once with a cut drawn from
-    the stochastic model; passes with index >= ``hold_from`` are held (no answer)."""
+    """Stands in for pass planner + plant: answers each command once with a force trajectory
+    and, ``pass_time_s`` later, a cut drawn from the stochastic model; passes with index >=
+    ``hold_from`` are held (no answer), and with ``lose_first`` the first delivery of each
+    command is lost."""
 
-    def __init__(self, ros, seed=0):
+    def __init__(self, ros, seed=0, lose_first=False, pass_time_s=0.0):
         self.node = ros.node("pass_executor")
         self.rng = np.random.default_rng(seed)
+        self.lose_first, self.pass_time_s = lose_first, pass_time_s
         self.answered: list[tuple[str, int]] = []
         self.commanded: list[int] = []  # every pass index the planner asked for
         self.hold_from = math.inf
         self.specific_energy_j_mm3 = math.nan  # the K1 each pass measured (nan: none)
         self.publisher = self.node.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
+        self.trajectories = self.node.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
         self.node.create_subscription(PassCommand, "/grinding/pass_command", self.on_command, LATCHED)
 
     def on_command(self, command: PassCommand) -> None:
         self.commanded.append(command.pass_index)
         key = (command.job_id, command.pass_index)
-        if key in self.answered or command.pass_index >= self.hold_from:
+        if key in self.answered or command.pass_index >= self.hold_from or (
+                self.lose_first and self.commanded.count(command.pass_index) == 1):
             return
         self.answered.append(key)
+        self.trajectories.publish(ForceTrajectory(job_id=command.job_id, pass_index=command.pass_index))
         cut = MODEL.sample(command.cut_depth_mm, MODEL.std_mm(PROCESS, command.normal_force_n, command.feed_speed_mm_s),
                            self.rng)
         result = PassResult(job_id=command.job_id, pass_index=command.pass_index, status=PassResult.COMPLETED,
                             measured_cut_depth_mm=cut, duration_s=command.pass_duration_s,
                             feed_speed_mm_s=command.feed_speed_mm_s, specific_energy_j_mm3=self.specific_energy_j_mm3)
         result.header.stamp.sec = 10 * (command.pass_index + 1)  # the plant clock at the pass's end
-        self.publisher.publish(result)
+        if self.pass_time_s:
+            threading.Timer(self.pass_time_s, self.publisher.publish, [result]).start()
+        else:
+            self.publisher.publish(result)
 
 
 @pytest.fixture
 def planner(spawn, tmp_path):
     job_dir = tmp_path / "jobs"
 
-    def start():
-        return spawn(["hex-sequence-planner", "--ros-args", "-p", f"job_dir:={job_dir}"])
+    def start(*arguments):
+        return spawn(["hex-sequence-planner", "--ros-args", "-p", f"job_dir:={job_dir}", *arguments])
     return start
 
 
@@ -92,6 +101,34 @@ def test_a_job_runs_to_completion_over_the_action(ros, planner):
     assert [index for _, index in executor.answered] == list(range(result.passes))
     assert len(feedback) == result.passes and math.isfinite(result.total_charge)
     assert abs(result.material_remaining_mm) < 0.3
+
+
+def test_a_lost_pass_command_is_sent_again_until_a_trajectory_answers_it(ros, planner):
+    """The pass planner misses the first delivery of every command (a lost message): the
+    planner sends it again after ``command_resend_s``; once the force trajectory for it is
+    out, it does not, however long the pass takes."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    planner("-p", "command_resend_s:=1.5")
+    executor = PassExecutor(ros, lose_first=True, pass_time_s=4.0)
+    executor.hold_from = 2
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    send(ros, GrindBead.Goal(job_id="bead7", bead_height_mm=1.5, bead_width_mm=12.5,
+                             bead_length_mm=300.0, deadline_s=120.0))
+    wait_until(lambda: executor.commanded.count(2) >= 2, 40.0, what="pass 2 sent twice")
+    # passes 0 and 1: lost once, then answered, and not sent again while they ran (4 s)
+    assert [executor.commanded.count(i) for i in (0, 1)] == [2, 2]
+    assert [index for _, index in executor.answered] == [0, 1]
+
+    def resent():
+        for array in reversed(list(diagnostics)):
+            for status in array.status:
+                if status.name == "/sequence_planner":
+                    return int(dict((kv.key, kv.value) for kv in status.values).get("commands_resent", 0))
+        return 0
+    wait_until(lambda: resent() >= 3, 5.0, what="three resends in diagnostics")
+    time.sleep(3.0)  # pass 2 has no trajectory: it goes on being sent, every 1.5 s
+    assert executor.commanded.count(2) >= 3
 
 
 def test_a_bead_too_high_for_the_deadline_ends_by_the_policy(ros, planner):

@@ -28,7 +28,8 @@ A command for pass k is planned on the contour after k passes (``pass_index`` k 
 same job, or a contour without a job id). If none has arrived within ``contour_wait_s``
 the command is refused. Planning runs in a worker thread; nothing is published for a
 command until its whole plan exists, and nothing at all for a refused one. A command
-already answered (a latched re-delivery) is ignored.
+already answered or in hand (a latched re-delivery, or the sequence planner sending it
+again) is ignored; each new one is logged when it arrives and when it is planned.
 """
 
 from __future__ import annotations
@@ -108,10 +109,13 @@ class PassPlannerNode(Node):
         self._try_plan()
 
     def _on_command(self, msg: PassCommand) -> None:
-        key = (msg.job_id, msg.pass_index)
-        if key in self.answered or (self.planning and _key(self.planning[0]) == key):
-            return
+        key = _key(msg)
+        in_hand = [entry[0] for entry in (self.planning, self.checking) if entry] + [self.pending]
+        if key in self.answered or any(c is not None and _key(c) == key for c in in_hand):
+            return  # a re-delivery (latched, or the sequence planner sending again)
         self.diagnostics.count("commands")
+        self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: cut {msg.cut_depth_mm:.4f} mm "
+                               f"at {msg.feed_speed_mm_s:.2f} mm/s, K1 {msg.specific_energy_j_mm3:g} J/mm^3")
         self.pending, self.pending_since = msg, time.monotonic()  # a transport wait: wall time
         self._try_plan()
 
@@ -243,6 +247,8 @@ class PassPlannerNode(Node):
         self.trajectory_pub.publish(msg)
         self.path = (start, path, 0)
         self.diagnostics.count("planned")
+        self.get_logger().info(f"pass {command.pass_index} of job {command.job_id!r} planned: "
+                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s")
         summary = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
                    "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size),
                    "specific_energy_j_mm3": process.specific_energy_j_mm3}
