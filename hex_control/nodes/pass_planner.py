@@ -248,10 +248,11 @@ class PassPlannerNode(Node):
         self.path = (start, path, 0)
         self.diagnostics.count("planned")
         self.get_logger().info(f"pass {command.pass_index} of job {command.job_id!r} planned: "
-                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s")
+                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s "
+                               f"({plan.simulations} simulation{'s' if plan.simulations > 1 else ''})")
         summary = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
                    "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size),
-                   "specific_energy_j_mm3": process.specific_energy_j_mm3}
+                   "specific_energy_j_mm3": process.specific_energy_j_mm3, "simulations": plan.simulations}
         self._status(command, DiagnosticStatus.WARN if plan.reason else DiagnosticStatus.OK,
                      plan.reason or "planned", summary)
 
