@@ -43,6 +43,13 @@ def start_planner(ros, spawn, *arguments):
     return publishers, outputs
 
 
+def outcome(statuses):
+    """The latest status that says how a command ended (planned or refused), after the
+    "received" the planner says of every command."""
+    ended = [status for status in statuses if status.message != "received"]
+    return ended[-1] if ended else None
+
+
 @pytest.fixture
 def planner(ros, spawn):
     return start_planner(ros, spawn, "-p", "reachability_service:=''")  # no kinematics node here
@@ -68,8 +75,11 @@ def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
     assert final.pass_index == 1 and len(final.x_mm) == len(final.z_mm) == len(final.parent_mm)
     removed = 12.5 * (np.trapezoid(BEAD.z_mm, BEAD.x_mm) - np.trapezoid(final.z_mm, final.x_mm))
     assert removed == pytest.approx(0.3 * 12.5 * 60.0, rel=0.02)
-    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 5.0, what="status")
+    status = wait_until(lambda: outcome(outputs["status"]), 5.0, what="status")
     assert status.level == DiagnosticStatus.OK
+    received = outputs["status"][0]  # acknowledged before it was planned (the sequence planner resends until)
+    assert received.message == "received" and [(v.key, v.value) for v in received.values] == [
+        ("job_id", "job-a"), ("pass_index", "0")]
     # the path streams on the node's clock: approach (1 s), 6 s of grinding, retract, reset
     wait_until(lambda: len(outputs["path"]) > 300, 20.0, what="the path to stream")
     z = np.array([p.pose.position.z for p in outputs["path"]])
@@ -85,7 +95,7 @@ def test_the_force_is_planned_with_the_commands_k1(planner):
     publishers["command"].publish(_command(specific_energy_j_mm3=15.0))
     trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
                             what="a force trajectory")
-    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 5.0, what="status")
+    status = wait_until(lambda: outcome(outputs["status"]), 5.0, what="status")
     assert dict((v.key, v.value) for v in status.values)["specific_energy_j_mm3"] == "15.0"
 
     config = load_pass_planner_config("pass_planner.yaml")
@@ -111,7 +121,7 @@ def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, comm
     publishers, outputs = planner
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
     publishers["command"].publish(command)
-    status = wait_until(lambda: outputs["status"][-1] if outputs["status"] else None, 20.0, what="a refusal")
+    status = wait_until(lambda: outcome(outputs["status"]), 20.0, what="a refusal")
     assert status.level == DiagnosticStatus.ERROR and reason in status.message
     assert outputs["trajectory"] == [] and outputs["path"] == []
     result = wait_until(lambda: outputs["result"][-1] if outputs["result"] else None, 5.0, what="a pass result")

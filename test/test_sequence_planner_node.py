@@ -9,6 +9,7 @@ import time
 import numpy as np
 import pytest
 from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.action import ActionClient
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
@@ -18,7 +19,7 @@ from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.stochastic import CutDepthModel
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control_msgs.action import GrindBead
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 from ros_harness import wait_until
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -27,10 +28,10 @@ PROCESS, MODEL = GrindingProcess(), CutDepthModel()
 
 
 class PassExecutor:
-    """Stands in for pass planner + plant: answers each command once with a force trajectory
-    and, ``pass_time_s`` later, a cut drawn from the stochastic model; passes with index >=
-    ``hold_from`` are held (no answer), and with ``lose_first`` the first delivery of each
-    command is lost."""
+    """Stands in for pass planner + plant: acknowledges each command once as the pass
+    planner does (/pass_planner/status "received") and answers it ``pass_time_s`` later with
+    a cut drawn from the stochastic model; passes with index >= ``hold_from`` are held (no
+    answer), and with ``lose_first`` the first delivery of each command is lost."""
 
     def __init__(self, ros, seed=0, lose_first=False, pass_time_s=0.0):
         self.node = ros.node("pass_executor")
@@ -41,7 +42,7 @@ class PassExecutor:
         self.hold_from = math.inf
         self.specific_energy_j_mm3 = math.nan  # the K1 each pass measured (nan: none)
         self.publisher = self.node.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
-        self.trajectories = self.node.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+        self.status = self.node.create_publisher(DiagnosticStatus, "/pass_planner/status", LATCHED)
         self.node.create_subscription(PassCommand, "/grinding/pass_command", self.on_command, LATCHED)
 
     def on_command(self, command: PassCommand) -> None:
@@ -51,7 +52,8 @@ class PassExecutor:
                 self.lose_first and self.commanded.count(command.pass_index) == 1):
             return
         self.answered.append(key)
-        self.trajectories.publish(ForceTrajectory(job_id=command.job_id, pass_index=command.pass_index))
+        self.status.publish(DiagnosticStatus(message="received", values=[
+            KeyValue(key="job_id", value=command.job_id), KeyValue(key="pass_index", value=str(command.pass_index))]))
         cut = MODEL.sample(command.cut_depth_mm, MODEL.std_mm(PROCESS, command.normal_force_n, command.feed_speed_mm_s),
                            self.rng)
         result = PassResult(job_id=command.job_id, pass_index=command.pass_index, status=PassResult.COMPLETED,
@@ -81,6 +83,15 @@ def send(ros, goal, feedback=None):
     return future.result()
 
 
+def planner_count(diagnostics, key: str) -> int:
+    """The sequence planner's latest count ``key`` in the collected /diagnostics (0: none yet)."""
+    for array in reversed(list(diagnostics)):
+        for status in array.status:
+            if status.name == "/sequence_planner":
+                return int(dict((kv.key, kv.value) for kv in status.values).get(key, 0))
+    return 0
+
+
 def result_of(handle, timeout_s=30.0):
     future = handle.get_result_async()
     wait_until(future.done, timeout_s, what="the job result")
@@ -103,12 +114,10 @@ def test_a_job_runs_to_completion_over_the_action(ros, planner):
     assert abs(result.material_remaining_mm) < 0.3
 
 
-def test_a_lost_pass_command_is_sent_again_until_a_trajectory_answers_it(ros, planner):
+def test_a_lost_pass_command_is_sent_again_until_the_pass_planner_has_it(ros, planner):
     """The pass planner misses the first delivery of every command (a lost message): the
-    planner sends it again after ``command_resend_s``; once the force trajectory for it is
-    out, it does not, however long the pass takes."""
-    from diagnostic_msgs.msg import DiagnosticArray
-
+    planner sends it again after ``command_resend_s``; once the pass planner has acknowledged
+    it, it does not, however long the pass takes."""
     planner("-p", "command_resend_s:=1.5")
     executor = PassExecutor(ros, lose_first=True, pass_time_s=4.0)
     executor.hold_from = 2
@@ -116,18 +125,11 @@ def test_a_lost_pass_command_is_sent_again_until_a_trajectory_answers_it(ros, pl
     send(ros, GrindBead.Goal(job_id="bead7", bead_height_mm=1.5, bead_width_mm=12.5,
                              bead_length_mm=300.0, deadline_s=120.0))
     wait_until(lambda: executor.commanded.count(2) >= 2, 40.0, what="pass 2 sent twice")
-    # passes 0 and 1: lost once, then answered, and not sent again while they ran (4 s)
+    # passes 0 and 1: lost once, then acknowledged, and not sent again while they ran (4 s)
     assert [executor.commanded.count(i) for i in (0, 1)] == [2, 2]
     assert [index for _, index in executor.answered] == [0, 1]
-
-    def resent():
-        for array in reversed(list(diagnostics)):
-            for status in array.status:
-                if status.name == "/sequence_planner":
-                    return int(dict((kv.key, kv.value) for kv in status.values).get("commands_resent", 0))
-        return 0
-    wait_until(lambda: resent() >= 3, 5.0, what="three resends in diagnostics")
-    time.sleep(3.0)  # pass 2 has no trajectory: it goes on being sent, every 1.5 s
+    wait_until(lambda: planner_count(diagnostics, "commands_resent") >= 3, 5.0, what="three resends in diagnostics")
+    time.sleep(3.0)  # pass 2 is never acknowledged (held): it goes on being sent, every 1.5 s
     assert executor.commanded.count(2) >= 3
 
 
@@ -283,8 +285,6 @@ def test_a_silent_predictor_delays_a_decision_by_the_wait_only(ros, planner):
 def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):
     """Online re-planning: a pass-rate K1 prediction that moves beyond the threshold makes the
     planner re-solve (the thesis had to regenerate its solution offline, section 8.1)."""
-    from diagnostic_msgs.msg import DiagnosticArray
-
     planner()
     executor = PassExecutor(ros)
     executor.hold_from = 1
@@ -295,18 +295,11 @@ def test_a_moved_coefficient_estimate_re_solves_the_policy(ros, planner):
     node = ros.node("k1_source")
     publisher = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
     ros.wait_for_match(node, "/load_predictor/pass/prediction", subscribers=1)
-
-    def solves():
-        for array in reversed(list(diagnostics)):
-            for status in array.status:
-                if status.name == "/sequence_planner":
-                    return int(dict((kv.key, kv.value) for kv in status.values).get("solves", 0))
-        return 0
-    wait_until(lambda: solves() == 1, 5.0, what="the first solve in diagnostics")
+    wait_until(lambda: planner_count(diagnostics, "solves") == 1, 5.0, what="the first solve in diagnostics")
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=10.2))  # within 5 %
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=12.0))  # beyond
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=float("nan")))
     publisher.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=1e3))  # 100x: broken
-    wait_until(lambda: solves() == 2, 20.0, what="one re-solve")
+    wait_until(lambda: planner_count(diagnostics, "solves") == 2, 20.0, what="one re-solve")
     time.sleep(3.0)  # a re-solve and two diagnostics periods: the refused estimates solved nothing
-    assert solves() == 2
+    assert planner_count(diagnostics, "solves") == 2

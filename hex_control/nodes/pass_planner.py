@@ -9,8 +9,9 @@ Topics:
     /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
                                                                  ``lookahead_s`` ahead of
                                                                  this node's clock
-    ~/status                   (DiagnosticStatus, latched)  out  OK + summary, or ERROR +
-                                                                 the reason a command was refused
+    ~/status                   (DiagnosticStatus, latched)  out  per command: OK "received",
+                                                                 then OK + summary, or ERROR +
+                                                                 the reason it was refused
     /grinding/pass_result      (PassResult)                 out  REJECTED + the reason, for a
                                                                  refused command
     /diagnostics
@@ -116,6 +117,7 @@ class PassPlannerNode(Node):
         self.diagnostics.count("commands")
         self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: cut {msg.cut_depth_mm:.4f} mm "
                                f"at {msg.feed_speed_mm_s:.2f} mm/s, K1 {msg.specific_energy_j_mm3:g} J/mm^3")
+        self._status(msg, DiagnosticStatus.OK, "received", {})  # the sequence planner's acknowledgement
         self.pending, self.pending_since = msg, time.monotonic()  # a transport wait: wall time
         self._try_plan()
 

@@ -16,8 +16,8 @@ The prediction made from pass k's measured K1 is the one for pass k+1: while a p
 publishes, the decision after pass k waits for it (the prediction stamped like the pass
 result; at most ``prediction_wait_s``), so that which K1 a pass is planned with does not
 depend on which message arrives first. Each PassCommand carries that K1 down.
-A command that no ForceTrajectory on /grinding/force_trajectory answers within
-``command_resend_s`` is published again, until one does or its result comes.
+A command the pass planner has not acknowledged on /pass_planner/status (received,
+planned or refused) within ``command_resend_s`` is published again until it does.
 
 The job's time is logical: it advances by the measured pass durations (a waiting step
 advances it by one stage), not by this node's clock.
@@ -33,6 +33,7 @@ from pathlib import Path
 
 import yaml
 from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
@@ -47,7 +48,7 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.action import GrindBead
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 
 REASONS = {DONE: GrindBead.Result.DONE, QUIT: GrindBead.Result.QUIT, CANCELLED: GrindBead.Result.CANCELLED,
            ABORTED: GrindBead.Result.ABORTED, REJECTED: GrindBead.Result.REJECTED}
@@ -82,8 +83,8 @@ class SequencePlannerNode(Node):
         self.declare_parameter("pass_timeout_s", 300.0, ParameterDescriptor(
             description="wall time to wait for a pass result before aborting the job (s)"))
         self.declare_parameter("command_resend_s", 5.0, ParameterDescriptor(
-            description="wall time after which a pass command with no force trajectory for it "
-                        "is published again (a lost delivery) (s); 0 = never"))
+            description="wall time after which a pass command the pass planner has not acknowledged "
+                        "on /pass_planner/status is published again (a lost delivery) (s); 0 = never"))
         self.declare_parameter("prediction_wait_s", 2.0, ParameterDescriptor(
             description="wall time a decision waits for the K1 prediction from the pass just "
                         "measured, when a predictor publishes (s); 0 = decide at once"))
@@ -98,7 +99,7 @@ class SequencePlannerNode(Node):
         self.model_update: PassModelUpdate | None = None
         self.last_solve_ms = math.nan  # wall time of the latest policy solve
         self._sent_at = None
-        self._unplanned = None  # (the latest PassCommand while no trajectory answers it, wall s sent)
+        self._unacknowledged = None  # (the latest PassCommand until the pass planner has it, wall s sent)
         self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
         self._last_prediction_stamp = None
 
@@ -107,7 +108,7 @@ class SequencePlannerNode(Node):
         self.result_pub = self.create_publisher(GrindBead.Result, "~/job_result", LATCHED)
         self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
         self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_prediction, 10)
-        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(DiagnosticStatus, "/pass_planner/status", self._on_pass_planner_status, LATCHED)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    handle_accepted_callback=self._on_accepted,
@@ -197,7 +198,7 @@ class SequencePlannerNode(Node):
         command.expected_penalty = decision["expected_penalty"]
         self.command_pub.publish(command)
         self._sent_at = time.monotonic()
-        self._unplanned = (command, self._sent_at)
+        self._unacknowledged = (command, self._sent_at)
         feedback = GrindBead.Feedback(pass_index=command.pass_index, material_remaining_mm=command.material_remaining_mm,
                                       time_remaining_s=command.time_remaining_s,
                                       expected_penalty=command.expected_penalty, command=command)
@@ -218,7 +219,7 @@ class SequencePlannerNode(Node):
         self.diagnostics.count(f"jobs_{self.job.state.end['reason']}")
         self.get_logger().info(f"job {self.job.goal.job_id} ended: {self.job.state.end['reason']}, "
                                f"{result.passes} passes, charge {result.total_charge:.4f}")
-        self._sent_at = self._unplanned = None
+        self._sent_at = self._unacknowledged = None
         if self.goal_handle is not None:
             self.results[bytes(self.goal_handle.goal_id.uuid)] = result
             handle, self.goal_handle = self.goal_handle, None
@@ -262,7 +263,7 @@ class SequencePlannerNode(Node):
             self.get_logger().warning(f"pass result with invalid values {values} rejected")
             return
         job.apply_result(msg.pass_index, msg.measured_cut_depth_mm, msg.duration_s, msg.status == PassResult.COMPLETED)
-        self._unplanned = None
+        self._unacknowledged = None
         if msg.burn_detected:
             self.diagnostics.warn(f"burn reported on pass {msg.pass_index}")
         stamp = _stamp_ns(msg.header.stamp)
@@ -273,10 +274,11 @@ class SequencePlannerNode(Node):
             return
         self._advance()
 
-    def _on_trajectory(self, msg: ForceTrajectory) -> None:
-        if self._unplanned and (msg.job_id, msg.pass_index) == (self._unplanned[0].job_id,
-                                                                 self._unplanned[0].pass_index):
-            self._unplanned = None  # the pass planner has it
+    def _on_pass_planner_status(self, msg: DiagnosticStatus) -> None:
+        values = {pair.key: pair.value for pair in msg.values}
+        if self._unacknowledged and (values.get("job_id"), values.get("pass_index")) == (
+                self._unacknowledged[0].job_id, str(self._unacknowledged[0].pass_index)):
+            self._unacknowledged = None  # received, planned or refused: the pass planner has it
 
     def _on_prediction(self, msg: LoadPrediction) -> None:
         if self.model_update is None or self.job is None or self.job.finished:
@@ -305,13 +307,13 @@ class SequencePlannerNode(Node):
         if self._sent_at is None or self.job is None or self.job.finished:
             return
         resend_s = self.get_parameter("command_resend_s").value
-        if self._unplanned and resend_s > 0 and time.monotonic() - self._unplanned[1] > resend_s:
-            command = self._unplanned[0]
+        if self._unacknowledged and resend_s > 0 and time.monotonic() - self._unacknowledged[1] > resend_s:
+            command = self._unacknowledged[0]
             self.command_pub.publish(command)  # the pass planner ignores a command it already has
-            self._unplanned = (command, time.monotonic())
+            self._unacknowledged = (command, time.monotonic())
             self.diagnostics.count("commands_resent")
-            self.get_logger().warning(f"no force trajectory for pass {command.pass_index} after {resend_s:g} s: "
-                                      "command sent again")
+            self.get_logger().warning(f"pass {command.pass_index} not acknowledged by the pass planner after "
+                                      f"{resend_s:g} s: command sent again")
         if time.monotonic() - self._sent_at > self.get_parameter("pass_timeout_s").value:
             self.job.end(ABORTED, "no pass result before the timeout")
             self._finish()
