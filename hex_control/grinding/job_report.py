@@ -28,6 +28,7 @@ class JobRecord:
     commands: dict = field(default_factory=dict)  # pass index -> the PassCommand's values
     results: dict = field(default_factory=dict)  # pass index -> the PassResult's values
     trajectories: dict = field(default_factory=dict)  # pass index -> (grind start s, times s, forces N)
+    planned_cut_mm: dict = field(default_factory=dict)  # pass index -> the pass planner's depth (stall guard)
     force: list = field(default_factory=list)  # (t s, measured N)
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
     strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
@@ -43,8 +44,8 @@ class JobRecord:
             and sorted(self.results) == list(range(len(self.results)))
 
     def summary(self) -> dict:
-        passes = [{"pass": i, **self.commands.get(i, {}), **{f"measured_{k}" if k in self.commands.get(i, {}) else k: v
-                                                             for k, v in self.results[i].items()}}
+        passes = [{"pass": i, **self.commands.get(i, {}), "pass_planner_cut_depth_mm": self.planned_cut_mm.get(i),
+                   **{f"measured_{k}" if k in self.commands.get(i, {}) else k: v for k, v in self.results[i].items()}}
                   for i in sorted(self.results)]
         start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else math.nan
         results_in_order = [i for kind, i in self.events if kind == "result"]
