@@ -7,7 +7,8 @@ import pytest
 
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.penalties import DeadlineCharge, InPathCharges, LatenessCharge, SideCharge
-from hex_control.grinding.sdp import GRIND, QUIT, WAIT, Charges, PlannerGrid, Policy, solve
+from hex_control.grinding.sdp import (GRIND, QUIT, ROUNDING, WAIT, Charges, CutCorrelation, PlannerGrid, Policy,
+                                      _kernels, build_controls, solve)
 from hex_control.grinding.sdp_reference import solve_reference
 from hex_control.grinding.stochastic import CutDepthModel
 
@@ -151,7 +152,7 @@ def test_burn_constraint_lowers_the_maximum_cut_and_binds():
 
 @pytest.mark.parametrize("late_horizon_s, per_pass, finish", [(0.0, 0.0, 0.0), (20.0, 0.01, 0.0), (0.0, 0.0, 3.0)])
 def test_agrees_with_brute_force_backward_induction(late_horizon_s, per_pass, finish):
-    """Independent plain-loop induction (same grid, controls, quadrature nodes): 1e-9."""
+    """Independent plain-loop induction (same grid, controls, transition weights): 1e-9."""
     grid = PlannerGrid(material_min_mm=-0.5, material_max_mm=1.5, material_states=41, horizon_s=40.0,
                        late_horizon_s=late_horizon_s, forces=6, feeds=4)
     charges = Charges(in_path=InPathCharges(per_pass=per_pass, surface_finish_per_mm_s=finish))
@@ -159,6 +160,54 @@ def test_agrees_with_brute_force_backward_induction(late_horizon_s, per_pass, fi
     penalty, action = solve_reference(PROCESS, charges, grid, CutDepthModel())
     np.testing.assert_allclose(policy.penalty, penalty, atol=1e-9)
     np.testing.assert_array_equal(policy.action, action)
+
+
+def test_the_fft_correlation_is_the_direct_sum_to_rounding():
+    """The expectation over the cut (eq. 5.3) by FFT against the same sums taken directly
+    (J held at its end values beyond the grid), on the benchmark grid's controls (kernels up
+    to 282 nodes wide on 300 states) and rows spanning 1e-6 to 1e3: within ROUNDING."""
+    grid = PlannerGrid(material_states=300, horizon_s=598.0, forces=32, feeds=8)
+    controls = build_controls(PROCESS, grid, CutDepthModel())
+    kernels = [_kernels(CutDepthModel(), controls.mean_cut_mm[:, v], controls.cut_std_mm[:, v], grid.material_step_mm,
+                        controls.feasible[:, v]) for v in range(len(controls.feeds_mm_s))]
+    n_x = len(grid.material_mm)
+    rows = np.sort(10.0 ** np.random.default_rng(1).uniform(-6, 3, (4, n_x)), axis=1)
+    correlation = CutCorrelation(kernels, n_x)
+    spectra = correlation.spectra(rows)
+    for v, (low, kernel) in enumerate(kernels):
+        after = np.clip(np.arange(n_x)[:, None] - (low + np.arange(kernel.shape[1]))[None, :], 0, n_x - 1)
+        direct = np.einsum("rik,fk->rfi", rows[:, after], kernel)
+        np.testing.assert_allclose(correlation(spectra, v), direct, rtol=0, atol=0.1 * ROUNDING * rows.max())
+
+
+def test_the_policy_does_not_change_when_every_charge_is_scaled():
+    """Scaling every charge scales J and leaves the argmin alone. Controls that tie exactly
+    -- the same passes in another order, under the linear charge -- are told apart only by
+    rounding; the tie rule (lowest force, fastest feed within ROUNDING) keeps that noise out
+    of the policy. Before it, 270 feed choices of the shipped policy flipped at scale 3."""
+    import copy
+
+    import yaml
+
+    from hex_control.config import config_file
+    from hex_control.grinding.config import parse_planner_config
+
+    config = yaml.safe_load(config_file("sequence_planner.yaml").read_text())
+    policies = []
+    for scale in (1.0, 3.0):
+        scaled = copy.deepcopy(config)
+        charges = scaled["charges"]
+        for side in ("over", "under"):
+            charges["deadline"][side]["coefficient"] *= scale
+        charges["lateness"]["coefficient"] *= scale
+        process, charges, grid, cut_model = parse_planner_config(scaled)
+        policies.append(solve(process, charges, grid, cut_model))
+    one, three = policies
+    np.testing.assert_allclose(three.penalty, 3 * one.penalty, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(three.action, one.action)
+    np.testing.assert_array_equal(three.force_n, one.force_n)
+    np.testing.assert_array_equal(three.feed_mm_s, one.feed_mm_s)
+    assert np.count_nonzero(one.action == GRIND) > 1000
 
 
 def test_surface_finish_charge_slows_the_last_pass():

@@ -1,6 +1,6 @@
 """Brute-force backward induction: the SDP of :mod:`hex_control.grinding.sdp` as plain loops
 over stages, states, forces and feeds, with np.interp for J. Independent of the kernel /
-Toeplitz machinery; same grid, same controls, same transition weights (the exact
+FFT machinery; same grid, same controls, same transition weights (the exact
 expectation over J linear between nodes) and the same tie rule. For cross-checks on small
 grids and as the benchmark baseline."""
 
