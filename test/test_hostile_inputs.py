@@ -7,7 +7,7 @@ import math
 import time
 
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -33,6 +33,8 @@ def field_strategy(kind: str):
         return st.integers(*INTEGERS[kind])
     if kind == "boolean":
         return st.booleans()
+    if kind == "octet":
+        return st.binary(min_size=1, max_size=1)
     if kind == "string":
         return st.sampled_from(["", "job-a", "x" * 200, "a/b", "ünï"])
     if kind.startswith("sequence<"):
@@ -55,7 +57,7 @@ UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematic
     ("/grinding/contour", Contour, LATCHED), ("/grinding/force_trajectory", ForceTrajectory, 10),
     ("/plant/wrench", WrenchStamped, 100), ("/motion/setpoint_raw", PoseStamped, 100),
     ("/motion/setpoint", PoseStamped, 100), ("/load_predictor/force/prediction", LoadPrediction, 10),
-    ("/load_predictor/pass/prediction", LoadPrediction, 10)]
+    ("/load_predictor/pass/prediction", LoadPrediction, 10), ("/pass_planner/status", DiagnosticStatus, LATCHED)]
 PLANT = [("/plant/force_axis_command", Float64, 100), ("/plant/strut_command", JointState, 100)]
 
 
