@@ -13,11 +13,13 @@ Vectorization: the cut depth does not depend on X, so on the uniform X grid the
 expectation is a correlation of J with a kernel per control, K[k] = P(interpolation
 weight at a shift of k grid steps). The kernels are computed once, as spectra; each
 stage's J (extended by its end values, as the lookup holds it constant beyond the grid)
-is transformed once, and the correlation of a feed with all its forces is one product of
-spectra and one inverse real FFT: the same sums as a Toeplitz matrix product, to rounding
-(1e-15 of J's largest value), at a fifth of the arithmetic for this grid's wide kernels.
-Stages closer together than the shortest pass do not depend on each other, so a whole
-block of them is one product per feed.
+is transformed once per feed, and the correlation of a feed with all its forces is one
+product of spectra and one inverse real FFT (:class:`CutCorrelation`): the same sums as a
+Toeplitz matrix product, to rounding (1e-16 of J's largest value), in about a third of
+its time on the benchmark grid, whose kernels span up to 282 of its 300 states. Stages
+closer together than the shortest pass do not depend on each other, so a whole block of
+them is one product per feed. Controls within that rounding of the best tie; the tie goes
+to the lowest force and the fastest feed.
 
 Units: mm, N, s; penalties in charge units.
 """
@@ -173,29 +175,34 @@ class CutCorrelation:
 
     With J held at its end values beyond the grid (as the lookup holds it),
     E[i] = sum_k K[k] J[clip(i - low - k)] = (K * J_padded)[i + pad_low - low], J padded by
-    pad_low = max(low + n_k - 1) on the left and pad_high = max(-low) on the right over all
-    feeds; a transform at least as long as the padded row keeps those entries free of
-    wrap-around. Spectra of J rows are made once (``spectra``) and serve every feed.
+    pad_low = low + n_k - 1 on the left and pad_high = -low on the right (at least 0); a
+    transform at least as long as the padded row keeps those entries free of wrap-around.
+    Each feed has its own length (its kernels' width): a J row is transformed once per feed
+    (``spectra``), and serves all that feed's forces.
     """
 
     def __init__(self, kernels: list[tuple[int, np.ndarray]], n_x: int):
         self.n_x = n_x
-        self.pad_low = max(0, max(low + kernel.shape[1] - 1 for low, kernel in kernels))
-        self.pad_high = max(0, max(-low for low, _ in kernels))
-        self.length = scipy.fft.next_fast_len(n_x + self.pad_low + self.pad_high, real=True)
-        self.spectrum_size = self.length // 2 + 1
-        self.first = [self.pad_low - low for low, _ in kernels]
-        self.kernel_spectra = [scipy.fft.rfft(kernel, n=self.length, axis=1) for _, kernel in kernels]
+        self.pads = [(max(0, low + kernel.shape[1] - 1), max(0, -low)) for low, kernel in kernels]
+        self.lengths = [scipy.fft.next_fast_len(n_x + left + right, real=True) for left, right in self.pads]
+        self.first = [left - low for (left, _), (low, _) in zip(self.pads, kernels)]
+        self.kernel_spectra = [scipy.fft.rfft(kernel, n=n, axis=1) for (_, kernel), n in zip(kernels, self.lengths)]
 
-    def spectra(self, rows: np.ndarray) -> np.ndarray:
-        """Spectra of J rows (rows, n_x) extended by their end values."""
-        padded = np.concatenate([np.repeat(rows[:, :1], self.pad_low, 1), rows,
-                                 np.repeat(rows[:, -1:], self.pad_high, 1)], 1)
-        return scipy.fft.rfft(padded, n=self.length, axis=1)
+    def empty_spectra(self, rows: int) -> list[np.ndarray]:
+        """Room for the spectra of ``rows`` J rows, per feed."""
+        return [np.empty((rows, n // 2 + 1), complex) for n in self.lengths]
+
+    def spectra(self, rows: np.ndarray) -> list[np.ndarray]:
+        """Per feed, the spectra of J rows (rows, n_x) extended by their end values."""
+        return [scipy.fft.rfft(np.concatenate([np.repeat(rows[:, :1], left, 1), rows,
+                                               np.repeat(rows[:, -1:], right, 1)], 1), n=n, axis=1)
+                for (left, right), n in zip(self.pads, self.lengths)]
 
     def __call__(self, row_spectra: np.ndarray, feed_index: int) -> np.ndarray:
-        """E[J(X - delta)] for each (row, force of the feed, state): (rows, forces, n_x)."""
-        full = scipy.fft.irfft(row_spectra[:, None, :] * self.kernel_spectra[feed_index][None], n=self.length, axis=2)
+        """E[J(X - delta)] for each (row, force of the feed, state): (rows, forces, n_x), from
+        this feed's spectra of the rows."""
+        full = scipy.fft.irfft(row_spectra[:, None, :] * self.kernel_spectra[feed_index][None],
+                               n=self.lengths[feed_index], axis=2)
         first = self.first[feed_index]
         return full[:, :, first:first + self.n_x]
 
@@ -287,8 +294,8 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
 
     penalty = np.empty((n_t, n_x))
     no_grind_after = np.empty((n_t, n_x))
-    penalty_spectra = np.empty((n_t, correlation.spectrum_size), complex)
-    no_grind_spectra = np.empty_like(penalty_spectra) if finish > 0 else None
+    penalty_spectra = correlation.empty_spectra(n_t)  # per feed
+    no_grind_spectra = correlation.empty_spectra(n_t) if finish > 0 else None
     action = np.full((n_t, n_x), WAIT, np.int8)
     best_force = np.full((n_t, n_x), np.nan)
     best_feed_index = np.full((n_t, n_x), -1)
@@ -300,9 +307,9 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     penalty[0] = quit_value(0)
     action[0] = QUIT if late else WAIT
     no_grind_after[0] = 1.0
-    penalty_spectra[:1] = correlation.spectra(penalty[:1])
+    _store(penalty_spectra, [0], correlation.spectra(penalty[:1]))
     if finish > 0:
-        no_grind_spectra[:1] = correlation.spectra(no_grind_after[:1])
+        _store(no_grind_spectra, [0], correlation.spectra(no_grind_after[:1]))
     block = int(controls.duration_stages.min())
     k = 1
     while k < n_t:
@@ -316,15 +323,14 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
             if not valid.any() or not feasible.any():
                 continue
             targets = stages[valid] - duration
-            expected = correlation(penalty_spectra[targets], v)  # (stages, feasible forces, n_x)
-            expected += charges.in_path.per_pass
+            expected = correlation(penalty_spectra[v][targets], v)  # (stages, feasible forces, n_x)
             if finish > 0:
-                expected += finish * controls.feeds_mm_s[v] * correlation(no_grind_spectra[targets], v)
+                expected += finish * controls.feeds_mm_s[v] * correlation(no_grind_spectra[v][targets], v)
             # below the transforms' rounding the order of two controls is noise: of those
             # within it of the best, the lowest force and the fastest feed (the first)
             rounding = ROUNDING * max(1.0, np.abs(penalty[targets]).max() + finish * controls.feeds_mm_s[v])
             f_best = np.argmax(expected <= expected.min(axis=1, keepdims=True) + rounding, axis=1)
-            value = np.take_along_axis(expected, f_best[:, None, :], axis=1)[:, 0, :]
+            value = np.take_along_axis(expected, f_best[:, None, :], axis=1)[:, 0, :] + charges.in_path.per_pass
             better = value < grind[valid] - rounding
             rows = np.flatnonzero(valid)
             grind[rows] = np.where(better, value, grind[rows])
@@ -345,9 +351,9 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
             no_grind_after[stage] = np.where(grinds, 0.0, 1.0)
             best_force[stage] = np.where(grinds, controls.forces_n[grind_force[row]], np.nan)
             best_feed_index[stage] = np.where(grinds, grind_feed[row], -1)
-        penalty_spectra[stages] = correlation.spectra(penalty[stages])
+        _store(penalty_spectra, stages, correlation.spectra(penalty[stages]))
         if finish > 0:
-            no_grind_spectra[stages] = correlation.spectra(no_grind_after[stages])
+            _store(no_grind_spectra, stages, correlation.spectra(no_grind_after[stages]))
         k = stages[-1] + 1
         if progress is not None:
             progress(len(stages))
@@ -362,3 +368,8 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
                             "in_path": asdict(charges.in_path)},
                 "feeds_mm_s": controls.feeds_mm_s.tolist(), "forces_n": controls.forces_n.tolist()}
     return Policy(times, x, action, best_force, feed, duration, cut, penalty, metadata)
+
+
+def _store(per_feed: list[np.ndarray], rows, spectra: list[np.ndarray]) -> None:
+    for table, values in zip(per_feed, spectra):
+        table[rows] = values
