@@ -8,7 +8,7 @@ import pytest
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.penalties import DeadlineCharge, InPathCharges, LatenessCharge, SideCharge
 from hex_control.grinding.sdp import (GRIND, QUIT, ROUNDING, WAIT, Charges, CutCorrelation, PlannerGrid, Policy,
-                                      _kernels, build_controls, solve)
+                                      build_controls, solve)
 from hex_control.grinding.sdp_reference import solve_reference
 from hex_control.grinding.stochastic import CutDepthModel
 
@@ -167,14 +167,12 @@ def test_the_fft_correlation_is_the_direct_sum_to_rounding():
     (J held at its end values beyond the grid), on the benchmark grid's controls (kernels up
     to 282 nodes wide on 300 states) and rows spanning 1e-6 to 1e3: within ROUNDING."""
     grid = PlannerGrid(material_states=300, horizon_s=598.0, forces=32, feeds=8)
-    controls = build_controls(PROCESS, grid, CutDepthModel())
-    kernels = [_kernels(CutDepthModel(), controls.mean_cut_mm[:, v], controls.cut_std_mm[:, v], grid.material_step_mm,
-                        controls.feasible[:, v]) for v in range(len(controls.feeds_mm_s))]
     n_x = len(grid.material_mm)
+    correlation = CutCorrelation.of(build_controls(PROCESS, grid, CutDepthModel()), CutDepthModel(),
+                                    grid.material_step_mm, n_x)
     rows = np.sort(10.0 ** np.random.default_rng(1).uniform(-6, 3, (4, n_x)), axis=1)
-    correlation = CutCorrelation(kernels, n_x)
     spectra = correlation.spectra(rows)
-    for v, (low, kernel) in enumerate(kernels):
+    for v, (low, kernel) in enumerate(correlation.kernels):
         after = np.clip(np.arange(n_x)[:, None] - (low + np.arange(kernel.shape[1]))[None, :], 0, n_x - 1)
         direct = np.einsum("rik,fk->rfi", rows[:, after], kernel)
         np.testing.assert_allclose(correlation(spectra[v], v), direct, rtol=0, atol=0.1 * ROUNDING * rows.max())

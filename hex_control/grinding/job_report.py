@@ -37,6 +37,14 @@ class JobRecord:
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
 
+    def stall_guard_cut_mm(self, index: int) -> float | None:
+        """The depth the pass planner planned pass ``index`` with (mm) where its stall guard
+        cut the sequence planner's; None where it planned the commanded depth."""
+        planned, command = self.planned_cut_mm.get(index), self.commands.get(index)
+        if planned is None or command is None or abs(planned - command["cut_depth_mm"]) < 1e-9:
+            return None
+        return planned
+
     @property
     def intended(self) -> bool:
         """The job ended by the policy's own logic (done or Quit Now), every pass reported."""

@@ -182,11 +182,17 @@ class CutCorrelation:
     """
 
     def __init__(self, kernels: list[tuple[int, np.ndarray]], n_x: int):
-        self.n_x = n_x
+        self.n_x, self.kernels = n_x, kernels
         self.pads = [(max(0, low + kernel.shape[1] - 1), max(0, -low)) for low, kernel in kernels]
         self.lengths = [scipy.fft.next_fast_len(n_x + left + right, real=True) for left, right in self.pads]
         self.first = [left - low for (left, _), (low, _) in zip(self.pads, kernels)]
         self.kernel_spectra = [scipy.fft.rfft(kernel, n=n, axis=1) for (_, kernel), n in zip(kernels, self.lengths)]
+
+    @classmethod
+    def of(cls, controls: Controls, cut_model: CutDepthModel, step_mm: float, n_x: int) -> CutCorrelation:
+        """The correlation of every feed's feasible forces on a grid of ``n_x`` nodes ``step_mm`` apart."""
+        return cls([_kernels(cut_model, controls.mean_cut_mm[:, v], controls.cut_std_mm[:, v], step_mm,
+                             controls.feasible[:, v]) for v in range(len(controls.feeds_mm_s))], n_x)
 
     def empty_spectra(self, rows: int) -> list[np.ndarray]:
         """Room for the spectra of ``rows`` J rows, per feed."""
@@ -286,9 +292,7 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     late = grid.late_horizon_s > 0
     deadline_charge = charges.deadline(x)
 
-    correlation = CutCorrelation([_kernels(cut_model, controls.mean_cut_mm[:, v], controls.cut_std_mm[:, v],
-                                           grid.material_step_mm, controls.feasible[:, v])
-                                  for v in range(len(controls.feeds_mm_s))], n_x)
+    correlation = CutCorrelation.of(controls, cut_model, grid.material_step_mm, n_x)
     durations = [int(d) for d in controls.duration_stages]
     finish = charges.in_path.surface_finish_per_mm_s
 
@@ -300,6 +304,11 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     best_force = np.full((n_t, n_x), np.nan)
     best_feed_index = np.full((n_t, n_x), -1)
 
+    def transform(rows):  # the spectra of finished stages, for the stages that land on them
+        _store(penalty_spectra, rows, correlation.spectra(penalty[rows]))
+        if finish > 0:
+            _store(no_grind_spectra, rows, correlation.spectra(no_grind_after[rows]))
+
     def quit_value(k):
         return deadline_charge + (charges.lateness(-times[k]) if late else 0.0)
 
@@ -307,9 +316,7 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     penalty[0] = quit_value(0)
     action[0] = QUIT if late else WAIT
     no_grind_after[0] = 1.0
-    _store(penalty_spectra, [0], correlation.spectra(penalty[:1]))
-    if finish > 0:
-        _store(no_grind_spectra, [0], correlation.spectra(no_grind_after[:1]))
+    transform([0])
     block = int(controls.duration_stages.min())
     k = 1
     while k < n_t:
@@ -351,9 +358,7 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
             no_grind_after[stage] = np.where(grinds, 0.0, 1.0)
             best_force[stage] = np.where(grinds, controls.forces_n[grind_force[row]], np.nan)
             best_feed_index[stage] = np.where(grinds, grind_feed[row], -1)
-        _store(penalty_spectra, stages, correlation.spectra(penalty[stages]))
-        if finish > 0:
-            _store(no_grind_spectra, stages, correlation.spectra(no_grind_after[stages]))
+        transform(stages)
         k = stages[-1] + 1
         if progress is not None:
             progress(len(stages))

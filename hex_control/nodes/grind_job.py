@@ -111,11 +111,10 @@ class JobObserver(Node):
             self.record.struts.append((stamp, *msg.position))
 
 
-def print_row(index: int, command: dict, result: dict, planned_cut_mm: float | None = None) -> None:
-    """One row of the pass table; ``planned_cut_mm``: the pass planner's depth, shown with
-    a * where its stall guard cut the sequence planner's."""
-    cut = command["cut_depth_mm"]
-    cut = f"{cut:>8.4f}" if planned_cut_mm is None or abs(planned_cut_mm - cut) < 1e-9 else f"{planned_cut_mm:>7.4f}*"
+def print_row(index: int, command: dict, result: dict, stall_guard_cut_mm: float | None = None) -> None:
+    """One row of the pass table; ``stall_guard_cut_mm``: the depth the pass planner's stall
+    guard planned instead of the command's, shown with a *."""
+    cut = f"{command['cut_depth_mm']:>8.4f}" if stall_guard_cut_mm is None else f"{stall_guard_cut_mm:>7.4f}*"
     print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
           f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
           f"{cut} "
@@ -277,7 +276,7 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
 
         def on_pass(index, command, result):
             if not quiet:
-                print_row(index, command, result, session.record.planned_cut_mm.get(index))
+                print_row(index, command, result, session.record.stall_guard_cut_mm(index))
             if index == restart_planner_after:
                 session.graph.kill("sequence_planner")
                 session.graph.start("sequence_planner")
@@ -285,11 +284,9 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
                 if not quiet:
                     print("     sequence planner killed and restarted", flush=True)
         session.wait_for_outcome(timeout_s, on_pass)
-        record = session.record
-        if not quiet and any(abs(mm - record.commands[k]["cut_depth_mm"]) > 1e-9
-                             for k, mm in record.planned_cut_mm.items() if k in record.commands):
+        if not quiet and any(session.record.stall_guard_cut_mm(k) is not None for k in session.record.results):
             print("   * depth cut by the pass planner's stall guard (the pass would need more power)")
-    return record
+    return session.record
 
 
 def start_policy(record: JobRecord):
