@@ -59,3 +59,15 @@ def test_pru3_dynamics_benchmark_prints_rate_and_ratio(capsys):
     assert run_benchmarks(["pru3_dynamics"], quick=True) == 0
     out = capsys.readouterr().out
     assert re.search(r"vectorized\s+[\d,]+ evaluations/s", out) and re.search(r"ratio: \d+x", out)
+
+
+def test_graph_benchmark_runs_the_whole_graph_with_both_executors(ros_env, capsys):
+    """The whole graph in lock-step on a short job, once per executor: the figures are
+    reported (only their presence asserted) and both executors make the same passes."""
+    assert run_benchmarks(["graph"], quick=True) == 0
+    out = capsys.readouterr().out
+    for executor in ("events", "single"):
+        assert re.search(rf"{executor} executor: [\d.]+ simulated s in [\d.]+ wall s = [\d.]+ simulated s per wall s",
+                         out)
+    assert out.count("CPU s per simulated s: plant") == 2
+    assert "the same passes with both executors: True" in out

@@ -84,3 +84,19 @@ def test_clip_below_truncates_exactly_and_inserts_the_crossings():
     # a cutter above the contour leaves it untouched
     same = clip_below(x, z, cut_x, np.array([5.0, 5.0]))
     assert same[0] is x and same[1] is z
+
+
+def test_a_face_clear_of_the_whole_contour_touches_nothing_and_cuts_nothing():
+    """The early exits (tip above the highest point: the approach and the reset move) give
+    what the full computation gives: no patch, and the contour untouched."""
+    from hex_control.grinding.contact import DiskPose, clip_below, contact_patch, contact_patch_sampled
+
+    x = np.linspace(0.0, 60.0, 601)
+    z = 1.0 + 0.05 * np.sin(x)
+    for lift in (1e-6, 0.01, 20.0):
+        pose = DiskPose(30.0, z.max() + lift + 85.0 * np.sin(0.35), 0.35, 85.0)
+        assert pose.tip_z_mm > z.max()
+        assert contact_patch(x, z, pose).length_mm == 0.0 == contact_patch_sampled(x, z, pose, 20_001).length_mm
+        cut_x, cut_z, _ = clip_below(x, z, np.array([pose.tip_x_mm, pose.centre_x_mm]),
+                                     np.array([pose.tip_z_mm, pose.centre_z_mm]))
+        assert np.array_equal(cut_x, x) and np.array_equal(cut_z, z)

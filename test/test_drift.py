@@ -128,3 +128,15 @@ def test_bad_settings_are_refused(kwargs):
 def test_a_non_finite_measurement_is_refused():
     with pytest.raises(ValueError):
         _shipped().step(math.inf)
+
+
+def test_a_measurement_far_beyond_both_modes_does_not_break_the_filter():
+    """Both modes' likelihoods underflow (K1 jumps from 10 to 200 J/mm^3, the node's valid
+    maximum): the mode probabilities stay as predicted and the filter goes on, finite."""
+    from hex_control.estimation import GaussMarkovModel
+    from hex_control.estimation.drift import DriftingLoadPredictor
+
+    predictor = DriftingLoadPredictor(GaussMarkovModel(0.98, 0.5, 0.01), mean=10.0)
+    for value in (10.0, 10.1, 1e6, 10.0):
+        step = predictor.step(value)
+        assert math.isfinite(step.prediction) and 0.0 <= predictor.drift_probability <= 1.0

@@ -67,3 +67,31 @@ def test_switch_to_an_optimized_shaper(shaper_node):
     wait_until(lambda: len(shaped) >= 2, 5.0, what="samples")
     assert node.diagnostics.values["shaper"].startswith("optimized (criterion")
     assert len(node._shaper.amplitudes) == 5 and node._shaper.delay_s <= 1.5 / 8.5  # the optimized design
+
+
+def test_a_whole_tool_path_is_shaped_as_the_stream_would_be(ros, shaper_node):
+    """A pass's path arrives whole (latched) and leaves whole: the ZVD staircase on every
+    channel, the stamp and identity kept, longer by the shaper's delay so it ends at rest."""
+    from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
+    from hex_control_msgs.msg import ToolPath
+
+    shaper_node()
+    node = ros.node("path_source")
+    publisher = node.create_publisher(ToolPath, "/motion/tool_path_raw", LATCHED)
+    shaped = ros.collect(ToolPath, "/motion/tool_path", LATCHED, publishers=1)
+    step = [0.0] * 5 + [1.0] * 20
+    path = ToolPath(job_id="job-s", pass_index=3, sample_period_s=0.01)
+    path.header.stamp.sec = 12
+    for k, name in enumerate(PATH_FIELDS):
+        setattr(path, name, [(k + 1) * v for v in step])
+    ros.wait_for_match(node, "/motion/tool_path_raw", subscribers=1)
+    bad = ToolPath(job_id="job-s", pass_index=4, sample_period_s=0.01, x_mm=[0.0, math.nan])
+    publisher.publish(bad)  # malformed (columns of unequal length, a NaN): refused, nothing out
+    publisher.publish(path)  # in order after it: when this one is out, the bad one was handled
+    out = wait_until(lambda: shaped[0] if shaped else None, 10.0, what="the shaped path")
+    assert (out.job_id, out.pass_index, out.header.stamp.sec) == ("job-s", 3, 12)
+    assert len(out.x_mm) == len(step) + 10  # ZVD at 10 Hz lasts 0.1 s: ten more samples, at rest
+    x = np.array(out.x_mm)
+    assert x[5] == pytest.approx(0.25) and x[10] == pytest.approx(0.75) and x[15:] == pytest.approx(1.0)
+    np.testing.assert_allclose(out.yaw_rad, 6 * x)
+    assert len(shaped) == 1

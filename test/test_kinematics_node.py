@@ -178,3 +178,38 @@ def test_pru3_on_a_feed_stage(ros, spawn):
     far = ros.call(test_pose, TestPose.Request(poses=[pose, ToolPose(x_mm=600.0, z_mm=200.0)]))
     assert far.error_code.val == Code.UNREACHABLE and far.first_unreachable_index == 1
     assert far.reports[1].strut_length_margin_mm == pytest.approx(450.0 - 600.0, abs=1.0)
+
+
+def test_a_tool_path_becomes_one_strut_trajectory_or_is_refused_whole(ros, kinematics_process):
+    """DESIGN.md 4.1: a pass's path is converted whole, by one vectorized IK call, into the
+    JointTrajectory the plant holds; a path with one pose out of reach is refused whole."""
+    from trajectory_msgs.msg import JointTrajectory
+
+    from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
+    from hex_control_msgs.msg import ToolPath
+
+    node = ros.node("path_source")
+    publisher = node.create_publisher(ToolPath, "/motion/tool_path", LATCHED)
+    trajectories = ros.collect(JointTrajectory, "/plant/strut_trajectory", LATCHED, publishers=1)
+    ros.wait_for_match(node, "/motion/tool_path", subscribers=1)
+    poses = np.column_stack([np.linspace(-50, 50, 400), np.zeros(400), np.full(400, -2100.0),
+                             np.full(400, 0.02), np.zeros(400), np.zeros(400)])
+
+    def path(rows, pass_index):
+        msg = ToolPath(job_id="job-k", pass_index=pass_index, sample_period_s=0.005)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = 7, 500_000_000
+        for k, name in enumerate(PATH_FIELDS):
+            setattr(msg, name, rows[:, k].tolist())
+        return msg
+    unreachable = poses.copy()
+    unreachable[200, 2] = -5000.0
+    publisher.publish(path(unreachable, 0))
+    publisher.publish(path(poses, 1))
+    trajectory = wait_until(lambda: trajectories[-1] if trajectories else None, 10.0, what="a strut trajectory")
+    assert len(trajectories) == 1  # the first path was refused whole
+    assert (trajectory.header.stamp.sec, trajectory.header.stamp.nanosec) == (7, 500_000_000)
+    assert list(trajectory.joint_names) == [f"strut_{i}" for i in range(6)] and len(trajectory.points) == 400
+    times = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in trajectory.points]
+    np.testing.assert_allclose(times, np.arange(400) * 0.005, atol=1e-9)
+    np.testing.assert_allclose([p.positions for p in trajectory.points], strut_lengths(NIST, poses) / 1000.0,
+                               atol=1e-12)

@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import yaml
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import PoseStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.config import config_file
@@ -19,7 +18,7 @@ from hex_control.grinding.contour import weld_bead
 from hex_control.grinding.pass_plan import plan_forces
 from hex_control.nodes.interfaces import RESULTS, contour_to_message
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath
 from hex_control_msgs.srv import TestPose
 from ros_harness import wait_until
 
@@ -28,12 +27,14 @@ BEAD = weld_bead(length_mm=60.0, height_mm=3.0, ripple_mm=0.1, seed=2)
 
 
 def start_planner(ros, spawn, *arguments):
-    spawn(["hex-pass-planner", "--ros-args", "-p", "contour_wait_s:=1.0", "-p", "start_delay_s:=0.0", *arguments])
+    # on sim time with no /clock: the node clock says 0, so a path starts from its contour's stamp
+    spawn(["hex-pass-planner", "--ros-args", "-p", "use_sim_time:=true", "-p", "contour_wait_s:=1.0", "-p",
+           "start_delay_s:=0.0", *arguments])
     node = ros.node("pass_client")
     outputs = {
         "trajectory": ros.collect(ForceTrajectory, "/grinding/force_trajectory", LATCHED),
         "status": ros.collect(DiagnosticStatus, "/pass_planner/status", LATCHED),
-        "path": ros.collect(PoseStamped, "/motion/setpoint_raw", QoSProfile(depth=1000)),
+        "path": ros.collect(ToolPath, "/motion/tool_path_raw", LATCHED),
         "result": ros.collect(PassResult, "/grinding/pass_result", RESULTS),
     }
     publishers = {"command": node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED),
@@ -63,7 +64,9 @@ def _command(pass_index=0, depth=0.3, feed=10.0, specific_energy_j_mm3=0.0):
 def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
     publishers, outputs = planner
     publishers["command"].publish(_command())  # before the contour: it waits for it
-    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    contour = contour_to_message(BEAD, "job-a", 0, 12.5)
+    contour.header.stamp.sec = 40  # the plant time of the scan: the pass starts start_delay_s (0) after it
+    publishers["contour"].publish(contour)
     trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
                             what="a force trajectory")
     assert trajectory.pass_index == 0 and trajectory.planned_cut_depth_mm == pytest.approx(0.3)
@@ -80,11 +83,18 @@ def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
     received = outputs["status"][0]  # acknowledged before it was planned (the sequence planner resends until)
     assert received.message == "received" and [(v.key, v.value) for v in received.values] == [
         ("job_id", "job-a"), ("pass_index", "0")]
-    # the path streams on the node's clock: approach (1 s), 6 s of grinding, retract, reset
-    wait_until(lambda: len(outputs["path"]) > 300, 20.0, what="the path to stream")
-    z = np.array([p.pose.position.z for p in outputs["path"]])
+    # the whole path, handed over at once: approach (1 s), 6 s of grinding, retract, reset
+    path = wait_until(lambda: outputs["path"][-1] if outputs["path"] else None, 5.0, what="the tool path")
+    assert (path.job_id, path.pass_index, path.sample_period_s) == ("job-a", 0, 0.005)
+    start_s = path.header.stamp.sec + path.header.stamp.nanosec * 1e-9
+    grind_s = trajectory.header.stamp.sec + trajectory.header.stamp.nanosec * 1e-9
+    assert start_s == pytest.approx(40.0, abs=1e-9)  # from the contour's stamp, not the node's clock
+    assert grind_s + trajectory.path_start_s == pytest.approx(start_s, abs=1e-9)
+    duration_s = (len(path.z_mm) - 1) * path.sample_period_s
+    assert grind_s + trajectory.path_end_s == pytest.approx(start_s + duration_s, abs=1e-9)
+    z = np.array(path.z_mm)
+    assert z.size == len(path.x_mm) == len(path.roll_rad) > 1000 and np.all(np.isfinite(z))
     assert z[0] == pytest.approx(z.max(), abs=1e-6)  # starts retracted above the bead
-    assert np.all(np.isfinite(z))
 
 
 def test_the_force_is_planned_with_the_commands_k1(planner):

@@ -12,6 +12,7 @@ from hex_control_msgs.msg import ForceTrajectory
 from ros_harness import wait_until
 
 KEEP = QoSProfile(depth=10_000)
+LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 HISTORY = QoSProfile(depth=10_000, durability=DurabilityPolicy.TRANSIENT_LOCAL)  # a lock-step run can
 # end before discovery has matched the collector: the plant keeps the true force for late joiners
 PLANT = ["hex-plant", "--ros-args", "-p", "stiction_n:=4.8", "-p", "runout_mm:=0.02", "-p", "sensor_noise_n:=0.3",
@@ -29,7 +30,7 @@ def _lockstep_run(ros, spawn, end_time_s: float, trajectory_s: float = 10.0) -> 
     returns (stamp, true force) until the plant stops at ``end_time_s``."""
     controller = spawn(CONTROLLER)
     source = ros.node(f"trajectory_source_{time.monotonic_ns()}")
-    publisher = source.create_publisher(ForceTrajectory, "/grinding/force_trajectory", 10)
+    publisher = source.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED_QOS)
     wait_until(lambda: publisher.get_subscription_count() >= 1, 15.0, what="the controller")
     trajectory = ForceTrajectory()
     trajectory.header.stamp.nanosec = 100_000_000
@@ -133,3 +134,41 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
     wait_until(lambda: plant_rejections() == "1", 5.0, what="the refused command to be counted")
     time.sleep(0.2)
     assert np.abs(np.array(states[-1].position) - target).max() < 1e-9  # still where it was
+
+
+def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
+    """Like ros2_control's joint trajectory controller: a JointTrajectory handed over before
+    it starts is sampled at every control period once sim time reaches its stamp (the first
+    point places the struts); one whose start sim time has passed is refused and counted."""
+    import numpy as np
+    from diagnostic_msgs.msg import DiagnosticArray
+    from trajectory_msgs.msg import JointTrajectory
+
+    from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, time_msg
+
+    names = [f"strut_{i}" for i in range(6)]
+    ramp = np.repeat(np.linspace(0.60, 0.62, 101)[:, None], 6, axis=1)  # 0.5 s at 5 ms
+    node = ros.node("trajectory_source")
+    publisher = node.create_publisher(JointTrajectory, "/plant/strut_trajectory", LATCHED)
+    publisher.publish(joint_trajectory_message(time_msg(0.2), names, 0.005, ramp))
+    states = ros.collect(JointState, "/plant/strut_states", KEEP)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    spawn(PLANT + ["-p", "end_time_s:=1.0"])  # holds at t = 0 until a controller answers
+    ros.wait_for_match(node, "/plant/strut_states", publishers=1)
+    ros.wait_for_match(node, "/plant/strut_trajectory", subscribers=1)
+    spawn(CONTROLLER)
+    wait_until(lambda: states and _stamp_s(states[-1]) >= 1.0 - 1e-9, 60.0, what="the end of the run")
+    first = _stamp_s(states[0])
+    assert first >= 0.2 - 1e-9  # nothing placed the struts before the trajectory began
+    assert states[0].position == pytest.approx([0.60] * 6, abs=1e-9)
+    assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)  # followed through the servos
+    publisher.publish(joint_trajectory_message(time_msg(0.5), names, 0.005, ramp[::-1]))
+
+    def counted():
+        for array in reversed(diagnostics):
+            for status in array.status:
+                if status.name == "/plant":
+                    return {v.key: v.value for v in status.values}.get("late_strut_trajectory")
+        return None
+    wait_until(lambda: counted() == "1", 5.0, what="the late trajectory to be counted")
+    assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)

@@ -159,3 +159,23 @@ def test_a_reset_move_settles_sooner_when_shaped(kind):
     unshaped_settle = settle_time(t, mode_response(t, raw, 5.0, 0.02), 100.0, 0.0) - 0.1
     shaped_settle = settle_time(t, mode_response(t, shaped, 5.0, 0.02), 100.0, 0.0) - 0.1
     assert unshaped_settle > 3 * shaped_settle and unshaped_settle > 5.0
+
+
+def test_a_whole_path_is_shaped_as_the_stream_would_be_until_it_rests():
+    """The input shaper's per-pass path (shape_whole) equals the online filter fed the same
+    samples one by one and then the last sample until the shaper's delay has passed."""
+    from hex_control.shaping.filter import shape_whole
+
+    rng = np.random.default_rng(3)
+    path = np.cumsum(rng.normal(size=(300, 6)), axis=0)
+    shaper = design("zvd", 5.0, 0.02)
+    for interpolate in (False, True):
+        whole = shape_whole(shaper, 0.005, path, interpolate)
+        online = ShaperFilter(shaper, 0.005, 6, interpolate)
+        extra = len(whole) - len(path)
+        streamed = np.array([online.step(row) for row in np.concatenate([path, np.repeat(path[-1:], extra, 0)])])
+        assert extra == round(online.delay_s / 0.005)
+        np.testing.assert_allclose(whole, streamed, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(whole[-1], path[-1], atol=1e-9)  # it ends at rest on the last sample
+    with pytest.raises(ValueError):
+        shape_whole(shaper, 0.005, [[0.0, math.nan]])

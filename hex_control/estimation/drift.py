@@ -136,7 +136,9 @@ class DriftingLoadPredictor:
         y = measurement - self.mean
         updates = [m.update(y, self.model.measurement_variance) for m in self._modes]
         weights = [c * likelihood for c, (likelihood, _, _) in zip(self._predicted_mode, updates)]
-        self._mode = [w / sum(weights) for w in weights]
+        total = sum(weights)
+        # a measurement so far out that both likelihoods underflow says nothing about the mode
+        self._mode = [w / total for w in weights] if total > 0 else list(self._predicted_mode)
         posterior = _mix(self._modes, self._mode)
         # seed 000's K(t): how far dL(t+1|t) moves per unit of innovation (a kl, or kl + kr)
         (_, kl_steady, _), (_, kl_drifting, kr_drifting) = updates

@@ -79,7 +79,10 @@ def contact_patch(x_mm: np.ndarray, z_mm: np.ndarray, pose: DiskPose, touch_mm: 
     """The part of the face with the contour on or above it, exactly for the polyline.
 
     Only the contour points under the face's span are visited (found by bisection), so a
-    call costs O(log n + points under the face)."""
+    call costs O(log n + points under the face), and less when the whole face (whose lowest
+    point is the tip) is above the whole contour: the approach and the reset move."""
+    if pose.tip_z_mm - touch_mm > z_mm.max():
+        return NO_PATCH
     tip_x, centre_x = pose.tip_x_mm, pose.centre_x_mm
     lo = int(x_mm.searchsorted(tip_x, "right"))
     hi = int(x_mm.searchsorted(centre_x, "left"))
@@ -148,7 +151,7 @@ def clip_below(x_mm: np.ndarray, z_mm: np.ndarray, cutter_x: np.ndarray, cutter_
     the same x (the parent surface) are interpolated onto the new points. The contour's
     own span is not extended."""
     first, last = max(cutter_x[0], x_mm[0]), min(cutter_x[-1], x_mm[-1])
-    if first >= last:
+    if first >= last or cutter_z.min() >= z_mm.max():  # nothing to cut (the second: the tool is clear)
         return x_mm, z_mm, extra
     lo = int(np.searchsorted(x_mm, first, "left"))
     hi = int(np.searchsorted(x_mm, last, "right"))

@@ -339,3 +339,69 @@ def forward_kinematics(geometry: StewartGeometry, lengths_mm, initial_guess=None
             "no_convergence", f"no convergence in {max_iterations} iterations "
                               f"(residual {solution.residual_mm[0]:.3g} mm)")
     return solution.poses[0], int(solution.iterations[0]), float(solution.residual_mm[0])
+
+
+def _lengths_and_jacobian(geometry: StewartGeometry, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """L (6,) and dL/dq (6, 6) of one pose, with R = R_z R_y R_x and its derivatives written
+    out entry by entry (the batch functions' einsum set-up costs more than the arithmetic for
+    a single pose)."""
+    cr, sr = math.cos(q[3]), math.sin(q[3])
+    cp, sp = math.cos(q[4]), math.sin(q[4])
+    cy, sy = math.cos(q[5]), math.sin(q[5])
+    # rows: R, dR/droll, dR/dpitch, dR/dyaw, each 3 x 3
+    terms = np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+        [0.0, cy * sp * cr + sy * sr, -cy * sp * sr + sy * cr],
+        [0.0, sy * sp * cr - cy * sr, -sy * sp * sr - cy * cr],
+        [0.0, cp * cr, -cp * sr],
+        [-cy * sp, cy * cp * sr, cy * cp * cr],
+        [-sy * sp, sy * cp * sr, sy * cp * cr],
+        [-cp, -sp * sr, -sp * cr],
+        [-sy * cp, -sy * sp * sr - cy * cr, -sy * sp * cr + cy * sr],
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [0.0, 0.0, 0.0]]) @ geometry.joints_from_tool_mm.T  # (12, 6)
+    struts = q[:3, None] + terms[:3] - geometry.base_joints_mm.T
+    lengths = np.sqrt((struts * struts).sum(axis=0))
+    units = struts / lengths
+    angular = (terms[3:].reshape(3, 3, 6) * units).sum(axis=1)  # (3 angles, 6 struts)
+    return lengths, np.vstack([units, angular]).T
+
+
+class TrackingForwardKinematics:
+    """Forward kinematics of a machine in motion, one solve per control period: Newton
+    steps from the last pose with the lengths and Jacobian it already evaluated there, so
+    that a small move costs one evaluation (no conditioning check or step halving of the
+    batch solver). Falls back to :func:`forward_kinematics` (which raises
+    ForwardKinematicsError) when a few steps do not reach ``tolerance_mm``."""
+
+    def __init__(self, geometry: StewartGeometry, guess=None, tolerance_mm: float = 1e-7, max_iterations: int = 4):
+        self.geometry, self.tolerance_mm, self.max_iterations = geometry, tolerance_mm, max_iterations
+        self._reset(np.asarray(geometry.home_pose if guess is None else guess, float))
+
+    def _reset(self, pose: np.ndarray) -> None:
+        self.pose = pose.copy()
+        self._lengths, self._jacobian = _lengths_and_jacobian(self.geometry, self.pose)
+
+    def solve(self, lengths_mm) -> np.ndarray:
+        """The pose (6,) whose strut lengths are ``lengths_mm`` (within tolerance_mm)."""
+        target = np.asarray(lengths_mm, float)
+        q, lengths, jac = self.pose, self._lengths, self._jacobian
+        for _ in range(self.max_iterations):
+            error = target - lengths
+            if np.abs(error).max() < self.tolerance_mm:
+                self.pose, self._lengths, self._jacobian = q, lengths, jac
+                return q.copy()
+            try:
+                q = q + np.linalg.solve(jac, error)
+            except np.linalg.LinAlgError:
+                break
+            if not np.all(np.isfinite(q)):
+                break
+            lengths, jac = _lengths_and_jacobian(self.geometry, q)
+        if np.abs(target - lengths).max() < self.tolerance_mm:
+            self.pose, self._lengths, self._jacobian = q, lengths, jac
+            return q.copy()
+        self._reset(forward_kinematics(self.geometry, target, self.pose, self.tolerance_mm)[0])
+        return self.pose.copy()

@@ -6,6 +6,8 @@ from collections import Counter
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+from hex_control.nodes.runtime import wall_timer
+
 
 class Diagnostics:
     """One DiagnosticStatus per node on ``/diagnostics``, published every ``period_s``.
@@ -22,7 +24,7 @@ class Diagnostics:
         self.values: dict[str, str] = {}
         self._level = DiagnosticStatus.OK
         self._message = "ok"
-        self._timer = node.create_timer(period_s, self.publish)
+        self._timer = wall_timer(node, period_s, self.publish)
 
     def count(self, name: str, increment: int = 1) -> None:
         self.counters[name] += increment

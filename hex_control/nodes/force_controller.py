@@ -38,6 +38,7 @@ from std_msgs.msg import Float64
 from hex_control.control.force_law import EnergyForceLaw, PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.interfaces import LATCHED
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
@@ -81,7 +82,8 @@ class ForceControllerNode(Node):
         self.feed_forward_n = 0.0
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
         self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
-        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, 10)
+        # latched: a controller that matches the pass planner late still gets the pass it must run
+        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
         self.create_subscription(Float64, "~/setpoint", self._on_setpoint, 10)
         self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, 100)
         self.create_subscription(LoadPrediction, "/load_predictor/force/prediction", self._on_prediction, 10)

@@ -18,17 +18,17 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import yaml
+
 from hex_control.config import config_file
 
-SIM_TIME = ["-p", "use_sim_time:=true"]
+SIM_TIME = ["-p", "use_sim_time:=true"]  # only where a node reads the clock: the rest run on stamps and wall timers
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
 MACHINE_SIDE = ("plant", "kinematics", "input_shaper", "force_controller")
 #: (topic, publishing node, subscribing node) of the volatile streams a pass runs on: a
-#: sample sent before its edge has matched is lost, so a job starts once all are there
-STREAM_EDGES = (("/motion/setpoint_raw", "pass_planner", "input_shaper"),
-                ("/motion/setpoint", "input_shaper", "kinematics"),
-                ("/plant/strut_command", "kinematics", "plant"),
-                ("/plant/wrench", "plant", "force_controller"),
+#: sample sent before its edge has matched is lost, so a job starts once all are there. A
+#: pass's tool path and trajectories are latched (handed over whole), so they need no wait.
+STREAM_EDGES = (("/plant/wrench", "plant", "force_controller"),
                 ("/plant/force_axis_command", "force_controller", "plant"))
 
 
@@ -59,27 +59,32 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
                 machine_file: str | None = None, real_time_factor: float = 1.0) -> list[NodeSpec]:
     """The grinding hierarchy with the shipped configuration: plant (``mode``, process
     variation seeded by ``seed``), kinematics, input shaper, force controller (answering
-    every measurement), pass planner, sequence planner (job log in ``job_dir``) and the
-    two load predictors."""
+    every measurement), pass planner, sequence planner (job log in ``job_dir``), the
+    pass-rate load predictor and, when the force controller feeds its prediction forward
+    (``feed_forward_mm_per_n`` > 0), the control-rate one."""
     machine = ["-p", f"machine_file:={machine_file}"] if machine_file else []
     plant = ["--params-file", str(config_file("plant.yaml")), "-p", f"mode:={mode}", "-p", f"seed:={seed}",
              "-p", f"real_time_factor:={float(real_time_factor)}", *machine]
     for name, value in (plant_overrides or {}).items():
         plant += ["-p", f"{name}:={value}"]
     predictors = str(config_file("load_predictor.yaml"))
-    return [
+    controller = config_file("force_controller.yaml")
+    nodes = [
         NodeSpec("plant", "plant", tuple(plant)),
-        NodeSpec("kinematics", "kinematics", (*SIM_TIME, *machine)),
-        NodeSpec("input_shaper", "input_shaper", tuple(SIM_TIME)),
-        NodeSpec("force_controller", "force_controller", ("--params-file", str(config_file("force_controller.yaml")),
-                                                           *SIM_TIME, "-p", "trigger:=measurement")),
+        NodeSpec("kinematics", "kinematics", tuple(machine)),
+        NodeSpec("input_shaper", "input_shaper", ()),
+        NodeSpec("force_controller", "force_controller", ("--params-file", str(controller), "-p",
+                                                           "trigger:=measurement")),
         NodeSpec("pass_planner", "pass_planner", (*SIM_TIME, *machine)),
-        NodeSpec("sequence_planner", "sequence_planner", (*SIM_TIME, "-p", f"job_dir:={job_dir}")),
-        NodeSpec("load_predictor_force", "load_predictor",
-                 ("-r", "__ns:=/load_predictor", "-r", "__node:=force", "--params-file", predictors, *SIM_TIME)),
+        NodeSpec("sequence_planner", "sequence_planner", ("-p", f"job_dir:={job_dir}")),
         NodeSpec("load_predictor_pass", "load_predictor",
-                 ("-r", "__ns:=/load_predictor", "-r", "__node:=pass", "--params-file", predictors, *SIM_TIME)),
+                 ("-r", "__ns:=/load_predictor", "-r", "__node:=pass", "--params-file", predictors)),
     ]
+    parameters = yaml.safe_load(controller.read_text())["force_controller"]["ros__parameters"]
+    if parameters.get("feed_forward_mm_per_n", 0.0):  # a control-rate prediction nobody uses costs 200 Hz
+        nodes.append(NodeSpec("load_predictor_force", "load_predictor",
+                              ("-r", "__ns:=/load_predictor", "-r", "__node:=force", "--params-file", predictors)))
+    return nodes
 
 
 def stop_hung(process: subprocess.Popen, timeout_s: float) -> int:

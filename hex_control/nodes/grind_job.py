@@ -18,21 +18,19 @@ from pathlib import Path
 import numpy as np
 import rclpy
 import yaml
-from geometry_msgs.msg import WrenchStamped
 from rclpy.action import ActionClient
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from sensor_msgs.msg import JointState
 
 from hex_control.config import config_file
 from hex_control.grinding.job_report import JobRecord
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
-from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_from_message
+from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
 
 
 def _seconds(stamp) -> float:
@@ -48,8 +46,7 @@ class JobObserver(Node):
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
         self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
-        self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, STREAM)
-        self.create_subscription(JointState, "/plant/strut_states", self._on_struts, STREAM)
+        self.create_subscription(PlantTelemetry, "/plant/telemetry", self._on_telemetry, TELEMETRY)
         self.create_subscription(GrindBead.Result, "/sequence_planner/job_result", self._on_job_result, LATCHED)
         self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_k1, STREAM)
         self.job_id = None
@@ -100,15 +97,15 @@ class JobObserver(Node):
         if self.job_id is not None:
             self.job_result = msg
 
-    def _on_wrench(self, msg: WrenchStamped) -> None:
-        self.record.force.append((_seconds(msg.header.stamp), msg.wrench.force.z))
-
-    def _on_struts(self, msg: JointState) -> None:
-        stamp = _seconds(msg.header.stamp)
-        if not self.record.strut_names:
-            self.record.strut_names = list(msg.name)
-        if not self.record.struts or stamp - self.record.struts[-1][0] >= 0.05 - 1e-9:
-            self.record.struts.append((stamp, *msg.position))
+    def _on_telemetry(self, msg: PlantTelemetry) -> None:
+        record, n = self.record, len(msg.strut_names)
+        record.force.extend(zip(msg.time_s, msg.measured_force_n))
+        if not n or len(msg.strut_lengths_m) != n * len(msg.time_s):
+            return  # no strut command yet
+        record.strut_names = record.strut_names or list(msg.strut_names)
+        for k, stamp in enumerate(msg.time_s):
+            if not record.struts or stamp - record.struts[-1][0] >= 0.05 - 1e-9:
+                record.struts.append((stamp, *msg.strut_lengths_m[k * n:(k + 1) * n]))
 
 
 def print_row(index: int, command: dict, result: dict, stall_guard_cut_mm: float | None = None) -> None:
@@ -127,15 +124,17 @@ HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'
           f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} status")
 
 
-#: wall seconds the plant's clock may stand still during a job before the job is given up:
-#: the plant runs on even without a controller, so a standing clock is a loop nobody answers
+#: wall seconds the plant's clock may stand still during a pass before the job is given up:
+#: the plant runs on even without a controller, so a clock that stands while a pass has been
+#: announced is a loop nobody answers (between passes it stands while the planners plan)
 STALL_S = 60.0
 
 
-#: wall seconds for a fresh graph's lock-step loop to run once its streams have matched.
-#: Three times in about a hundred starts on this machine (under load; after a SIGKILL, or
-#: with another graph running) the plant's clock stood still although discovery had
-#: matched every stream; such a graph is started again, before the goal is sent
+#: wall seconds for a fresh graph's lock-step loop to close once its streams have matched
+#: (the plant's first state answered). Three times in about a hundred starts on this machine
+#: (under load; after a SIGKILL, or with another graph running) the loop did not start
+#: although discovery had matched every stream; such a graph is started again, before the
+#: goal is sent
 LOOP_START_S = 30.0
 
 
@@ -190,8 +189,7 @@ class JobSession:
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
         self.spin_until(ResponseProbe(observer.client), 60.0, "the sequence planner's action server to answer")
-        self.spin_until(lambda: record.force and record.force[-1][0] >= 0.5, LOOP_START_S,
-                        "the plant's clock to run (the lock-step loop)")
+        self.spin_until(lambda: record.force, LOOP_START_S, "the plant's first state to be answered (the force loop)")
 
     def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
         record, observer = self.record, self.observer
@@ -229,7 +227,8 @@ class JobSession:
 
         def finished():
             sim_s = record.force[-1][0] if record.force else None
-            if sim_s != clock["sim_s"]:
+            in_pass = bool(set(record.trajectories) - set(record.results))
+            if sim_s != clock["sim_s"] or not in_pass:
                 clock.update(sim_s=sim_s, since=time.monotonic())
             elif time.monotonic() - clock["since"] > STALL_S:
                 raise RuntimeError(f"the plant's clock has stood at {sim_s} s for {STALL_S:g} s: nothing answers "

@@ -1,12 +1,19 @@
-"""Node ``input_shaper``: shapes a setpoint stream so that it does not excite a lightly
-damped structural mode (seed 003; library :mod:`hex_control.shaping`).
+"""Node ``input_shaper``: shapes motion so that it does not excite a lightly damped
+structural mode (seed 003; library :mod:`hex_control.shaping`).
 
 Topics:
-    /motion/setpoint_raw (``input_topic``)  in   PoseStamped or JointState (``input_type``)
-    /motion/setpoint     (``output_topic``) out  the same type, shaped, one message per input
-    /diagnostics                           out  samples, rejected samples, shaper in use
+    /motion/tool_path_raw (ToolPath, latched)  in   a pass's whole tool path
+    /motion/tool_path     (ToolPath, latched)  out  the same path shaped whole, longer by the
+                                                   shaper's delay (it ends at rest)
+    /motion/setpoint_raw (``input_topic``)     in   jogging: a stream of PoseStamped or
+                                                   JointState (``input_type``)
+    /motion/setpoint     (``output_topic``)    out  the same type, shaped, one message per input
+    /diagnostics                              out  paths, samples, rejected inputs, shaper in use
 
-Every input message is one sample at period ``sample_period_s``. A pose is shaped as seven
+A path is shaped as six channels (x, y, z, roll, pitch, yaw) at its own sample period, the
+way the online filter would stream it (``shape_whole``): the pass's trajectories are
+handed over whole (DESIGN.md 4.1). On the jogging stream every input message is one
+sample at period ``sample_period_s``. A pose is shaped as seven
 channels (position and quaternion, renormalized after shaping -- adequate for the small
 rotations of a reset move); a JointState as one channel per position. Shaper type,
 frequency, damping and V_tol are parameters that may change at run time: the output fades
@@ -26,10 +33,12 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.interfaces import LATCHED, tool_path_message, tool_path_rows
 from hex_control.nodes.runtime import run_node
-from hex_control.shaping.filter import ShaperFilter
+from hex_control.shaping.filter import ShaperFilter, shape_whole
 from hex_control.shaping.optimize import DesignProblem, optimize
 from hex_control.shaping.shapers import SHAPERS, design
+from hex_control_msgs.msg import ToolPath
 
 TYPES = {"pose": PoseStamped, "joint_state": JointState}
 SHAPER_PARAMETERS = ("shaper", "frequency_hz", "damping", "vibration_tolerance", "optimized_frequencies_hz")
@@ -68,6 +77,8 @@ class InputShaperNode(Node):
         # setpoints must not be dropped: a queue of 100 samples (0.5 s at 200 Hz) each way
         self._publisher = self.create_publisher(self._type, self.get_parameter("output_topic").value, 100)
         self.create_subscription(self._type, self.get_parameter("input_topic").value, self._on_sample, 100)
+        self._path_publisher = self.create_publisher(ToolPath, "/motion/tool_path", LATCHED)
+        self.create_subscription(ToolPath, "/motion/tool_path_raw", self._on_path, LATCHED)
         self.add_on_set_parameters_callback(self._validate)
         self.add_post_set_parameters_callback(self._apply)
         self.diagnostics.set("shaper", self._values()["shaper"])
@@ -125,10 +136,25 @@ class InputShaperNode(Node):
             return np.array([p.x, p.y, p.z, q.x, q.y, q.z, q.w], float)
         return np.array(msg.position, float)
 
-    def _on_sample(self, msg) -> None:
+    def _take_design(self) -> None:
         if self._pending is not None and self._pending.done():
             result, self._pending = self._pending.result(), None
             self._switch(result.shaper, f"optimized (criterion {result.criterion:.2e})")
+
+    def _on_path(self, msg: ToolPath) -> None:
+        self._take_design()
+        try:
+            rows = tool_path_rows(msg)
+        except ValueError as exc:
+            self.diagnostics.count("rejected_paths")
+            self.get_logger().warning(f"tool path of pass {msg.pass_index} rejected: {exc}")
+            return
+        shaped = shape_whole(self._shaper, msg.sample_period_s, rows, self.get_parameter("interpolate").value)
+        self._path_publisher.publish(tool_path_message(msg, shaped))
+        self.diagnostics.count("paths")
+
+    def _on_sample(self, msg) -> None:
+        self._take_design()
         values = self._values_of(msg)
         if values.size == 0 or not np.all(np.isfinite(values)):
             self.diagnostics.count("rejected_nonfinite")

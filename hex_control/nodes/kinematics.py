@@ -2,7 +2,13 @@
 
 Services (hex_control_msgs/srv), all answering with a KinematicsErrorCode:
     ~/inverse_kinematics   ~/test_pose   ~/forward_kinematics   ~/compute_workspace
-Stream:
+Trajectories (a pass, handed over whole; DESIGN.md 4.1):
+    /motion/tool_path (hex_control_msgs/ToolPath, latched)  in
+    /plant/strut_trajectory (trajectory_msgs/JointTrajectory, latched: strut names, lengths
+        in m, the path's stamp and sample times)  out
+    One vectorized inverse-kinematics call per path; a path with an unreachable or malformed
+    pose is refused whole: nothing published, logged with the first bad sample, counted.
+Stream (jogging):
     /motion/setpoint (geometry_msgs/PoseStamped, m + quaternion, REP 103)  in
     /plant/strut_command (sensor_msgs/JointState: strut names, lengths in m)  out
     An unreachable or malformed setpoint is refused: nothing published, logged, counted.
@@ -26,9 +32,9 @@ import threading
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 from hex_control.config import config_file
 from hex_control.kinematics import Pru3Geometry, load_machine
@@ -39,7 +45,8 @@ from hex_control.kinematics.stewart import (CONSTRAINT_SETS, ForwardKinematicsEr
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPose
+from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, tool_path_rows
+from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPath, ToolPose
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
 
 MAX_POSES = 100_000  # per request
@@ -66,22 +73,35 @@ class KinematicsCore:
         self.joint_names = machine.joint_names if self.is_pru3 else [f"strut_{i}" for i in range(6)]
         self.strut_count = len(self.joint_names)
 
+    def _pru3_joints(self, rows: np.ndarray):
+        """(reachable, stroke margin mm, tilt margin rad, joint positions mm) of 3-PRU poses."""
+        pose = pru3_kinematics.inverse_kinematics(self.machine, rows[:, [2, 3, 4]])
+        low, high = self.machine.stroke_mm
+        lengths = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
+        stroke = np.minimum(lengths - low, high - lengths).min(axis=1)
+        reachable = pose.reachable.copy()
+        if self.machine.feed_stroke_mm is not None:  # the feed stage carries x
+            feed = pru3_kinematics.feed_positions_mm(rows[:, 0], pose)
+            low, high = self.machine.feed_stroke_mm
+            stroke = np.minimum(stroke, np.minimum(feed - low, high - feed))
+            reachable &= stroke >= 0
+            lengths = np.column_stack([pose.lengths_mm, feed])
+        else:
+            lengths = pose.lengths_mm
+        tilt = self.machine.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
+        return reachable, stroke, tilt, lengths
+
+    def joint_positions_mm(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(joint positions (n, joints) mm, reachable (n,)) of n poses, in one vectorized call."""
+        if self.is_pru3:
+            reachable, _, _, lengths = self._pru3_joints(rows)
+            return lengths, reachable
+        check = check_poses(self.machine, rows)
+        return check.lengths_mm, check.reachable
+
     def reports(self, rows: np.ndarray) -> list[ConstraintReport]:
         if self.is_pru3:
-            pose = pru3_kinematics.inverse_kinematics(self.machine, rows[:, [2, 3, 4]])
-            low, high = self.machine.stroke_mm
-            lengths = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
-            stroke = np.minimum(lengths - low, high - lengths).min(axis=1)
-            reachable = pose.reachable.copy()
-            if self.machine.feed_stroke_mm is not None:  # the feed stage carries x
-                feed = pru3_kinematics.feed_positions_mm(rows[:, 0], pose)
-                low, high = self.machine.feed_stroke_mm
-                stroke = np.minimum(stroke, np.minimum(feed - low, high - feed))
-                reachable &= stroke >= 0
-                lengths = np.column_stack([pose.lengths_mm, feed])
-            else:
-                lengths = pose.lengths_mm
-            tilt = self.machine.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
+            reachable, stroke, tilt, lengths = self._pru3_joints(rows)
             out = []
             for k in range(len(rows)):
                 report = ConstraintReport(reachable=bool(reachable[k]),
@@ -161,7 +181,27 @@ class KinematicsNode(Node):
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
         self._command = self.create_publisher(JointState, "/plant/strut_command", 100)
         self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 100)
+        self._trajectory = self.create_publisher(JointTrajectory, "/plant/strut_trajectory", LATCHED)
+        self.create_subscription(ToolPath, "/motion/tool_path", self._on_path, LATCHED)
         self._names = self.core.joint_names
+
+    def _on_path(self, msg: ToolPath) -> None:
+        try:
+            rows = tool_path_rows(msg)
+        except ValueError as exc:
+            self.diagnostics.count("rejected_paths")
+            self.get_logger().warning(f"tool path of pass {msg.pass_index} refused: {exc}")
+            return
+        lengths_mm, reachable = self.core.joint_positions_mm(rows)
+        if not reachable.all():
+            k = int(np.flatnonzero(~reachable)[0])
+            self.diagnostics.count("refused_unreachable_paths")
+            self.get_logger().warning(f"tool path of pass {msg.pass_index} of {msg.job_id!r} refused: sample {k} "
+                                      f"{rows[k].round(3).tolist()} is out of reach")
+            return
+        self._trajectory.publish(joint_trajectory_message(msg.header.stamp, self._names, msg.sample_period_s,
+                                                          lengths_mm / 1000.0))
+        self.diagnostics.count("paths")
 
     def _fill_reports(self, request, response, service: str) -> bool:
         """Reports for the request's poses into the response; False (and INVALID_INPUT) if refused."""
@@ -232,6 +272,9 @@ class KinematicsNode(Node):
                                       throttle_duration_sec=1.0)
             return
         row = np.concatenate([values[:3] * 1000.0, rpy_from_quaternion(*values[3:])])
+        if not np.all(np.isfinite(row)):  # finite in m, not in mm (1e306 m)
+            self.diagnostics.count("rejected_malformed")
+            return
         report = self.core.reports(row[None])[0]
         if not report.reachable:
             self.diagnostics.count("refused_unreachable")
@@ -269,7 +312,7 @@ def main(args=None) -> int:
         companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
                                      namespace=node.get_namespace())
         nodes = [node, companion]
-        executors = [SingleThreadedExecutor(), SingleThreadedExecutor()]
+        executors = [runtime.make_executor(), runtime.make_executor()]
         for executor, each in zip(executors, nodes):
             executor.add_node(each)
         worker = threading.Thread(target=runtime.spin_until_stopped, args=(executors[1], stop), daemon=True)

@@ -6,15 +6,20 @@ Topics:
     /grinding/pass_command     (PassCommand, latched)       in
     /grinding/contour          (Contour, latched)           in   the profile after pass k
     /grinding/force_trajectory (ForceTrajectory, latched)   out  for the force controller
-    /motion/setpoint_raw       (PoseStamped, m)             out  the pass's path, streamed
-                                                                 ``lookahead_s`` ahead of
-                                                                 this node's clock
+    /motion/tool_path_raw      (ToolPath, latched)          out  the pass's whole tool path,
+                                                                 for the input shaper
     ~/status                   (DiagnosticStatus, latched)  out  per command: OK "received",
                                                                  then OK + summary, or ERROR +
                                                                  the reason it was refused
     /grinding/pass_result      (PassResult)                 out  REJECTED + the reason, for a
                                                                  refused command
     /diagnostics
+
+A pass starts ``start_delay_s`` after the later of the plant time of the contour it was
+planned on and this node's clock: in lock-step the plant's clock stands still between passes
+(it waits for the pass's trajectories), so that delay is the planning time the job is
+charged, the same at any machine load; in real time it is the margin the trajectories have
+to reach the plant.
 
 Before a path is sent, its poses (one sample in ten, and the last) are checked with the
 kinematics node's TestPose (``reachability_service``; '' = no check): a path the machine
@@ -42,10 +47,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
-from rclpy.time import Duration
 
 from hex_control.grinding.coefficients import plausible_specific_energy
 from hex_control.grinding.config import load_pass_planner_config
@@ -53,10 +56,11 @@ from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import LATCHED, RESULTS, contour_from_message, contour_to_message
-from hex_control.nodes.runtime import run_node
+from hex_control.nodes.interfaces import (LATCHED, PATH_FIELDS, RESULTS, contour_from_message, contour_to_message,
+                                          stamp_s, time_msg)
+from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPose
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
 from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
@@ -69,13 +73,10 @@ class PassPlannerNode(Node):
         self.declare_parameter("config", "pass_planner.yaml", read_only)
         self.declare_parameter("contour_wait_s", 5.0, read_only)
         self.declare_parameter("start_delay_s", 0.6, ParameterDescriptor(
-            description="time from a finished plan to the start of its path (s, node clock); "
-                        "no less than lookahead_s, so the stream starts without a burst"))
+            description="from the later of the contour's plant time and the node clock to the start "
+                        "of the pass's path (s): the planning time charged between passes"))
         self.declare_parameter("reachability_service", "/kinematics/test_pose", ParameterDescriptor(
             description="TestPose service for the path of every pass; '' = no check", read_only=True))
-        self.declare_parameter("lookahead_s", 0.5, ParameterDescriptor(
-            description="path samples are sent this far ahead of their stamps (s), so that the "
-                        "plant applies them on time whatever the latency of the chain"))
         self.declare_parameter("machine_file", "", ParameterDescriptor(
             description="machine YAML whose bead_frame (if any) places the bead; '' = the config's", read_only=True))
         machine_file = self.get_parameter("machine_file").value
@@ -87,21 +88,19 @@ class PassPlannerNode(Node):
         self.pending_since = None
         self.answered: set[tuple[str, int]] = set()
         self.worker = ThreadPoolExecutor(max_workers=1)
-        self.planning = None  # (command, future)
-        self.checking = None  # (command, plan, path, process, TestPose future or None, since)
+        self.planning = None  # (command, future, plant time of its contour s)
+        self.checking = None  # (command, (plan, path, process, contour s), TestPose future or None, since)
         self.check_sent_at = 0.0  # when the pending TestPose request went out (wall s)
         service = self.get_parameter("reachability_service").value
         self.reach_client = self.create_client(TestPose, service) if service else None
-        self.path = None  # (start time, ToolPath, next sample index)
 
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         self.result_pub = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
-        self.setpoint_pub = self.create_publisher(PoseStamped, "/motion/setpoint_raw", 100)
+        self.path_pub = self.create_publisher(ToolPath, "/motion/tool_path_raw", LATCHED)
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
-        self.create_timer(0.02, self._poll)
-        self.create_timer(self.config.path.sample_period_s, self._stream)
+        wall_timer(self, 0.02, self._poll)
 
     # -- inputs --------------------------------------------------------------------------
     def _on_contour(self, msg: ContourMsg) -> None:
@@ -134,7 +133,7 @@ class PassPlannerNode(Node):
         if contour is None:
             return
         command, self.pending = self.pending, None
-        self.planning = (command, self.worker.submit(self._plan, command, contour))
+        self.planning = (command, self.worker.submit(self._plan, command, contour), stamp_s(contour.header.stamp))
 
     # -- planning (worker thread: library calls only) ------------------------------------
     def _plan(self, command: PassCommand, contour_msg: ContourMsg):
@@ -170,29 +169,31 @@ class PassPlannerNode(Node):
             self._check_reach()
         if self.planning is None or not self.planning[1].done():
             return
-        command, future = self.planning
+        command, future, contour_s = self.planning
         self.planning = None
         try:
             plan, path, process = future.result()
         except (PlanningError, ValueError, FloatingPointError) as exc:
             self._refuse(command, str(exc), "unplannable")
         else:
+            self.checking = (command, (plan, path, process, contour_s), None, time.monotonic())
             if self.reach_client is None:
-                self._publish(command, plan, path, process)
+                self._publish(command, *self.checking[1])
+                self.checking = None
             else:
-                self.checking = (command, plan, path, process, None, time.monotonic())
                 self._check_reach()
         self._try_plan()
 
     def _check_reach(self) -> None:
-        command, plan, path, process, future, since = self.checking
+        command, planned, future, since = self.checking
+        path = planned[1]
         if future is None:
             if self.reach_client.service_is_ready():
                 roll, pitch, yaw = (float(a) for a in np.radians(self.config.frame.orientation_rpy_deg))
                 request = TestPose.Request(poses=[
                     ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
                     for x, y, z in _checked_positions(path)])
-                self.checking = (command, plan, path, process, self.reach_client.call_async(request), since)
+                self.checking = (command, planned, self.reach_client.call_async(request), since)
                 self.check_sent_at = time.monotonic()
             elif time.monotonic() - since > self.get_parameter("contour_wait_s").value:
                 self.checking = None
@@ -206,7 +207,7 @@ class PassPlannerNode(Node):
             elif time.monotonic() - self.check_sent_at > RESEND_S:
                 # Fast DDS drops a response to a client it has not matched yet: ask again
                 self.reach_client.remove_pending_request(future)
-                self.checking = (command, plan, path, process, None, since)
+                self.checking = (command, planned, None, since)
                 self.diagnostics.count("reachability_resent")
             return
         self.checking = None
@@ -216,7 +217,7 @@ class PassPlannerNode(Node):
             self._refuse(command, f"path pose ({x:.1f}, {y:.1f}, {z:.1f}) mm (machine frame) is out of the "
                                   "machine's reach", "unreachable")
         else:
-            self._publish(command, plan, path, process)
+            self._publish(command, *planned)
         self._try_plan()
 
     # -- outputs -------------------------------------------------------------------------
@@ -230,10 +231,9 @@ class PassPlannerNode(Node):
         result.header.stamp = self.get_clock().now().to_msg()
         self.result_pub.publish(result)
 
-    def _publish(self, command: PassCommand, plan, path, process) -> None:
+    def _publish(self, command: PassCommand, plan, path, process, contour_s: float) -> None:
         self.answered.add(_key(command))
-        start = self.get_clock().now() + Duration(seconds=self.get_parameter("start_delay_s").value)
-        grind_start = start + Duration(seconds=path.grind_start_s)
+        start_s = max(contour_s, self.get_clock().now().nanoseconds * 1e-9) + self.get_parameter("start_delay_s").value
         msg = ForceTrajectory(job_id=command.job_id, pass_index=command.pass_index,
                               feed_speed_mm_s=float(command.feed_speed_mm_s),
                               planned_cut_depth_mm=float(plan.planned_depth_mm),
@@ -244,10 +244,10 @@ class PassPlannerNode(Node):
                               planned_final_contour=contour_to_message(plan.final, command.job_id,
                                                                        command.pass_index + 1,
                                                                        process.bead_width_mm))
-        msg.header.stamp = grind_start.to_msg()
+        msg.header.stamp = time_msg(start_s + path.grind_start_s)
         msg.header.frame_id = "bead"
         self.trajectory_pub.publish(msg)
-        self.path = (start, path, 0)
+        self.path_pub.publish(_tool_path_message(command, path, start_s, self.config.frame.orientation_rpy_deg))
         self.diagnostics.count("planned")
         self.get_logger().info(f"pass {command.pass_index} of job {command.job_id!r} planned: "
                                f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s "
@@ -263,28 +263,20 @@ class PassPlannerNode(Node):
         self.status_pub.publish(DiagnosticStatus(level=level, name=self.get_fully_qualified_name(), message=message,
                                                  values=[KeyValue(key=k, value=str(v)) for k, v in pairs.items()]))
 
-    def _stream(self) -> None:
-        """Publish the path's samples whose time (less the lookahead) has come."""
-        if self.path is None:
-            return
-        start, path, index = self.path
-        elapsed = (self.get_clock().now() - start).nanoseconds / 1e9 + self.get_parameter("lookahead_s").value
-        quaternion = path.quaternion_xyzw
-        while index < path.time_s.size and path.time_s[index] <= elapsed:
-            msg = PoseStamped()
-            msg.header.frame_id = "machine"
-            msg.header.stamp = (start + Duration(seconds=float(path.time_s[index]))).to_msg()
-            p = path.positions_mm[index] / 1000.0
-            msg.pose.position.x, msg.pose.position.y, msg.pose.position.z = float(p[0]), float(p[1]), float(p[2])
-            o = msg.pose.orientation
-            o.x, o.y, o.z, o.w = (float(v) for v in quaternion)
-            self.setpoint_pub.publish(msg)
-            index += 1
-        self.path = None if index >= path.time_s.size else (start, path, index)
-
     def destroy_node(self):
         self.worker.shutdown(wait=False, cancel_futures=True)
         return super().destroy_node()
+
+
+def _tool_path_message(command: PassCommand, path, start_s: float, orientation_rpy_deg) -> ToolPath:
+    msg = ToolPath(job_id=command.job_id, pass_index=command.pass_index,
+                   sample_period_s=float(path.time_s[1] - path.time_s[0]))
+    msg.header.stamp, msg.header.frame_id = time_msg(start_s), "machine"
+    n = path.time_s.size
+    columns = [*path.positions_mm.T, *(np.full(n, a) for a in np.radians(orientation_rpy_deg))]
+    for name, column in zip(PATH_FIELDS, columns):
+        setattr(msg, name, column.tolist())
+    return msg
 
 
 def _checked_positions(path) -> np.ndarray:

@@ -7,6 +7,10 @@ Modes (``mode``):
   the controller answers every measurement (force_controller trigger:=measurement); as fast
   as the graph allows. Until the first command arrives the state is re-sent every
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
+  With a workpiece (``grinding``) sim time also never outruns the trajectories: the plant
+  advances only while a pass runs, or is announced and its strut trajectory is held. Between
+  passes the clock stands still while the planners plan, and the time a pass waits for is
+  the pass planner's fixed ``start_delay_s``: one seed, one result, at any machine load.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
   with the latest command; a period whose measurement went unanswered is a missed cycle. A
   late timer tick steps the periods it owes (:mod:`hex_control.plant.pacing`), so sim time
@@ -38,38 +42,48 @@ The machine: ``machine_file`` of a Stewart platform drives six generic strut ser
 (:mod:`hex_control.plant.pru3_machine`). Both carry the structural mode.
 
 Topics:
-    /clock                      rosgraph_msgs/Clock          out  sim time
-    /plant/wrench               geometry_msgs/WrenchStamped  out  sensor force, force.z (N)
-    /plant/true_wrench          geometry_msgs/WrenchStamped  out  the true normal force (N),
-                                                                  transient-local, last 1000
-    /plant/strut_states         sensor_msgs/JointState       out  lengths (m), speeds (m/s)
-    /plant/deflection           std_msgs/Float64             out  structural-mode deflection (mm)
+    /clock                      rosgraph_msgs/Clock          out  sim time, every ``clock_period_s``
+                                                                  and whenever the plant holds still
+    /plant/wrench               geometry_msgs/WrenchStamped  out  sensor force, force.z (N): the loop
+    /plant/telemetry            PlantTelemetry               out  every period's state, batched per
+                                                                  ``telemetry_period_s`` (while subscribed)
+    /plant/strut_states         sensor_msgs/JointState       out  lengths (m), speeds (m/s) (while subscribed)
+    /plant/true_wrench          geometry_msgs/WrenchStamped  out  with ``debug_streams``: the true normal
+                                                                  force (N), transient-local, last 1000
+    /plant/deflection           std_msgs/Float64             out  with ``debug_streams``: structural mode (mm)
     /plant/force_axis_command   std_msgs/Float64             in   table position command (mm)
-    /plant/strut_command        sensor_msgs/JointState       in   strut lengths (m), applied when
+    /plant/strut_trajectory     trajectory_msgs/JointTrajectory in  (latched) strut lengths (m) of a whole
+                                                                  move, sampled at every control period
+                                                                  once sim time reaches its stamp; one
+                                                                  that arrives after its start is refused
+    /plant/strut_command        sensor_msgs/JointState       in   jogging: strut lengths (m), applied when
                                                                   sim time reaches the stamp
   with grinding:
     /grinding/contour           hex_control_msgs/Contour     out  the scanned profile after k passes (latched)
     /grinding/pass_result       hex_control_msgs/PassResult  out  one per pass (transient-local, depth 10)
-    /plant/tool_centre          geometry_msgs/PointStamped   out  disk centre in the bead frame (x, H mm in x, z)
+    /plant/tool_centre          geometry_msgs/PointStamped   out  with ``debug_streams``: disk centre in the
+                                                                  bead frame (x, H mm in x, z)
     /grinding/force_trajectory  hex_control_msgs/ForceTrajectory in  announces a pass and its timing
 """
 
 from __future__ import annotations
 
 import json
-from collections import deque
 import math
 import os
 import time
+from collections import deque
+
+import numpy as np
 
 from geometry_msgs.msg import PointStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
-from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
+from trajectory_msgs.msg import JointTrajectory
 
 from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
@@ -78,8 +92,9 @@ from hex_control.grinding.variation import ProcessVariation
 from hex_control.kinematics import Pru3Geometry, load_machine
 from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, contour_to_message
-from hex_control.nodes.runtime import run_node
+from hex_control.nodes.interfaces import (LATCHED, RESULTS, STREAM, TELEMETRY, contour_to_message, stamp_s,
+                                          strut_trajectory_from_message, time_msg)
+from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.loop_timing import LoopTiming
@@ -90,7 +105,9 @@ from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassResult
+from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
+
+HELD_TRAJECTORIES = 4  # strut trajectories held at once (the running one and those queued after it)
 
 TABLE_PARAMETERS = ("stiction_n", "runout_mm", "disk_frequency_hz", "disk_slowdown_hz_per_n", "sensor_noise_n",
                     "sensor_cutoff_hz", "contact_mm", "rotational_stiffness_n_mm_rad", "disk_radius_mm",
@@ -111,7 +128,8 @@ class PlantNode(Node):
         table_defaults, machine_defaults = ForceTableParameters(), MachineParameters()
         for name, default in (("mode", "lockstep"), ("control_period_s", 0.005), ("internal_step_s", 0.001),
                               ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
-                              ("end_time_s", 0.0), ("report_file", ""),
+                              ("end_time_s", 0.0), ("report_file", ""), ("clock_period_s", 0.05),
+                              ("telemetry_period_s", 0.1), ("debug_streams", True),
                               ("table_start_mm", -1.0), ("strut_names", [""]), ("pru3_drive", "lspd"),
                               *CELL_PARAMETERS,
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
@@ -148,6 +166,12 @@ class PlantNode(Node):
         self.last_command_s = 0.0  # sim time of the latest force command
         self.free_running = False  # lock-step whose controller stopped answering
         self.strut_queue = deque()  # (stamp s, lengths m) of commands stamped ahead of sim time
+        self.trajectories = []  # StrutTrajectory, by start
+        self.answer_ready = False  # lock-step: the command answering the last state is in hand
+        self.holding = False  # lock-step: standing still until a pass is covered
+        self.next_clock_s = 0.0
+        self.telemetry = []  # (time s, measured N, true N, table mm, deflection mm, x mm, H mm, lengths m)
+        self.debug_streams = p("debug_streams")
         self.timing = LoopTiming()
         self.started = False  # a first command has answered a measurement
         self.loop_start = self.loop_end = None
@@ -161,19 +185,22 @@ class PlantNode(Node):
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
         self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
         self.create_subscription(JointState, "/plant/strut_command", self._on_strut_command, 100)
+        self.create_subscription(JointTrajectory, "/plant/strut_trajectory", self._on_strut_trajectory, LATCHED)
+        # kept (transient-local, the last 10 batches): a late observer still learns where the plant holds
+        self.telemetry_publisher = self.create_publisher(PlantTelemetry, "/plant/telemetry", TELEMETRY)
         if self.monitor is not None:
             self.contour_publisher = self.create_publisher(ContourMsg, "/grinding/contour", LATCHED)
             self.result_publisher = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
             self.centre_publisher = self.create_publisher(PointStamped, "/plant/tool_centre", STREAM)
             self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
-            self.contour_publisher.publish(contour_to_message(cell.contour, "", 0, cell.width_mm))
+            self.contour_publisher.publish(self._contour_message(cell.contour, "", 0))
         if self.mode == "realtime":
             self.pacer = RealTimePacer(self.period_s, p("real_time_factor"))
             self.create_timer(self.period_s / p("real_time_factor"), self._realtime_tick)
         else:
             self.create_timer(p("lockstep_timeout_s") / 4, self._lockstep_watchdog)
             self.create_timer(self.period_s / p("real_time_factor"), self._free_run)
-        self.create_timer(1.0, self._report)
+        wall_timer(self, 1.0, self._report)
         self._publish_state()
 
     def _cell(self, machine_geometry, machine_document: dict) -> tuple[GrindingCell, ToolLocator]:
@@ -190,11 +217,16 @@ class PlantNode(Node):
                             self.period_s, p("burn_coefficient") or None)
         return cell, ToolLocator(machine_geometry, config.frame)
 
+    def _contour_message(self, contour: Contour, job_id: str, passes: int):
+        msg = contour_to_message(contour, job_id, passes, self.sim.cell.width_mm)
+        msg.header.stamp = time_msg(self.sim.time_s)  # the pass planner starts the next pass from here
+        return msg
+
     def _on_trajectory(self, msg: ForceTrajectory) -> None:
-        grind_start = Time.from_msg(msg.header.stamp).nanoseconds / 1e9
+        grind_start = stamp_s(msg.header.stamp)
         try:
-            if not msg.time_from_start_s:
-                raise ValueError("empty trajectory")
+            if not msg.time_from_start_s or grind_start < 0:
+                raise ValueError("empty trajectory or negative stamp")
             scheduled = ScheduledPass(msg.job_id, msg.pass_index, grind_start + msg.path_start_s, grind_start,
                                       grind_start + msg.time_from_start_s[-1], grind_start + msg.path_end_s)
             if self.monitor.schedule(scheduled):
@@ -202,6 +234,30 @@ class PlantNode(Node):
         except ValueError as error:
             self.diagnostics.count("rejected_trajectory")
             self.get_logger().warning(f"force trajectory rejected: {error}")
+        self._lockstep_step()
+
+    def _on_strut_trajectory(self, msg: JointTrajectory) -> None:
+        try:
+            trajectory = strut_trajectory_from_message(msg, self.strut_names)
+            if np.abs(trajectory.lengths_m).max() >= 100.0:
+                raise ValueError("strut lengths must be under 100 m")
+            if isinstance(self.sim.machine, Pru3Machine):
+                for lengths in trajectory.lengths_m:
+                    self.sim.machine.check_command(lengths)
+        except ValueError as error:
+            self.diagnostics.count("rejected_strut_trajectory")
+            self.get_logger().warning(f"strut trajectory rejected: {error}", throttle_duration_sec=1.0)
+            return
+        if trajectory.start_s < self.sim.time_s - 1e-9:  # never jump into a move part-way
+            self.diagnostics.count("late_strut_trajectory")
+            self.get_logger().warning(f"strut trajectory from {trajectory.start_s:.3f} s refused: it arrived at "
+                                      f"{self.sim.time_s:.3f} s", throttle_duration_sec=1.0)
+            return
+        # a trajectory replaces whatever the held ones would do from its start on
+        kept = [t for t in self.trajectories if t.start_s < trajectory.start_s - 1e-9]
+        self.trajectories = (kept + [trajectory])[-HELD_TRAJECTORIES:]
+        self.diagnostics.count("strut_trajectories")
+        self._lockstep_step()
 
     # -- inputs ----------------------------------------------------------------------------
     def _on_force_command(self, msg: Float64) -> None:
@@ -217,7 +273,8 @@ class PlantNode(Node):
             self.timing = LoopTiming()  # count from here: startup is not the loop
         if self.mode == "lockstep":
             if answered:
-                self._advance()
+                self.answer_ready = True
+                self._lockstep_step()
             else:
                 self.diagnostics.count("unsolicited_commands")
 
@@ -233,26 +290,55 @@ class PlantNode(Node):
             self.diagnostics.count("rejected_strut_command")
             self.get_logger().warning(f"strut command rejected: {error}", throttle_duration_sec=1.0)
             return
-        stamp_s = Time.from_msg(msg.header.stamp).nanoseconds / 1e9
-        if stamp_s <= self.sim.time_s:
+        stamp = stamp_s(msg.header.stamp)
+        if stamp <= self.sim.time_s:
             self.sim.command_struts(lengths)
-        elif self.strut_queue and stamp_s < self.strut_queue[-1][0] or len(self.strut_queue) >= 10000:
+        elif self.strut_queue and stamp < self.strut_queue[-1][0] or len(self.strut_queue) >= 10000:
             self.diagnostics.count("rejected_strut_command")  # out of order, or a flood
         else:  # a path streamed ahead: apply it when its time comes (deterministic in lock-step)
-            self.strut_queue.append((stamp_s, lengths))
+            self.strut_queue.append((stamp, lengths))
 
     # -- stepping --------------------------------------------------------------------------
+    def _covered(self) -> bool:
+        """May sim time advance? Always, but in lock-step with a workpiece: only while a pass
+        runs, or is announced and the strut trajectory that starts it is held."""
+        if self.mode != "lockstep" or self.monitor is None or self.monitor.running is not None:
+            return True
+        scheduled = self.monitor.scheduled
+        return scheduled is not None and any(abs(t.start_s - scheduled.path_start_s) < 1e-6 for t in self.trajectories)
+
+    def _lockstep_step(self) -> None:
+        if self.mode != "lockstep" or not self.answer_ready:
+            return
+        if self._covered():
+            self.answer_ready = False
+            self._advance()
+        elif not self.holding:  # standing still: say where, to whoever subscribes later too
+            self.holding = True
+            self._record_telemetry(self.sim.snapshot(), always=True)
+            self._flush_telemetry()
+            self.clock_publisher.publish(Clock(clock=time_msg(self.sim.time_s)))
+
+    def _apply_strut_commands(self) -> None:
+        now = self.sim.time_s + 1e-9
+        while self.strut_queue and self.strut_queue[0][0] <= now:
+            self.sim.command_struts(self.strut_queue.popleft()[1])
+        self.trajectories = [t for t in self.trajectories if t.end_s > now - self.period_s]
+        active = [t for t in self.trajectories if t.start_s <= now]
+        if active:
+            self.sim.command_struts(active[-1].at(self.sim.time_s))
+
     def _advance(self) -> None:
         end = self.get_parameter("end_time_s").value
         if 0 < end <= self.sim.time_s + 1e-9:
             self.loop_end = self.loop_end or time.monotonic()
             return  # the run is over: hold still
+        self.holding = False
         self.timing.cycle()
         command_age_s = self.sim.time_s - self.last_command_s
         if command_age_s > self.get_parameter("command_timeout_s").value:
             self.command_mm = self.get_parameter("retract_mm").value  # amplifier watchdog
-        while self.strut_queue and self.strut_queue[0][0] <= self.sim.time_s + 1e-9:
-            self.sim.command_struts(self.strut_queue.popleft()[1])
+        self._apply_strut_commands()
         try:
             state = self.sim.advance(self.period_s, self.command_mm)
         except ValueError as error:  # the tool left the machine's forward kinematics
@@ -268,8 +354,7 @@ class PlantNode(Node):
         if report is None:
             return
         m = report.measurement
-        self.contour_publisher.publish(contour_to_message(m.contour_after, m.job_id, m.pass_index + 1,
-                                                          self.sim.cell.width_mm))
+        self.contour_publisher.publish(self._contour_message(m.contour_after, m.job_id, m.pass_index + 1))
         result = PassResult(job_id=m.job_id, pass_index=m.pass_index,
                             status=PassResult.ABORTED if report.aborted else PassResult.COMPLETED,
                             reason=report.reason, measured_cut_depth_mm=m.measured_cut_depth_mm,
@@ -279,7 +364,7 @@ class PlantNode(Node):
                             cut_depth_coefficient=(m.measured_cut_depth_mm * m.mean_feed_mm_s / m.mean_normal_force_n
                                                    if m.mean_normal_force_n > 0 else 0.0),
                             burn_detected=m.burn_detected, stall_detected=m.stall_detected)
-        result.header.stamp = Time(nanoseconds=round(state.time_s * 1e9)).to_msg()
+        result.header.stamp = time_msg(state.time_s)
         self.result_publisher.publish(result)
         self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
         if m.burn_detected or m.stall_detected:
@@ -296,38 +381,74 @@ class PlantNode(Node):
             return
         self.diagnostics.count("lockstep_timeouts")
         self.free_running = True
-        self._advance()
+        if self._covered():
+            self._advance()
 
     def _realtime_tick(self) -> None:
         for _ in range(self.pacer.due(time.monotonic())):
             self._advance()
 
     def _free_run(self) -> None:
-        if self.free_running:
+        if self.free_running and self._covered():
             self._advance()
 
     def _publish_state(self) -> None:
         state = self.sim.snapshot()
-        stamp = Time(nanoseconds=round(state.time_s * 1e9)).to_msg()
-        self.clock_publisher.publish(Clock(clock=stamp))
-        for publisher, force in ((self.wrench_publisher, state.measured_force_n),
-                                 (self.truth_publisher, state.force_n)):
-            wrench = WrenchStamped()
-            wrench.header.stamp, wrench.header.frame_id = stamp, "tool"
-            wrench.wrench.force.z = force
-            publisher.publish(wrench)
+        stamp = time_msg(state.time_s)
+        if state.time_s >= self.next_clock_s - 1e-9:
+            self.clock_publisher.publish(Clock(clock=stamp))
+            period = self.get_parameter("clock_period_s").value
+            self.next_clock_s = (math.floor(state.time_s / period + 1e-6) + 1) * period
+        wrench = WrenchStamped()
+        wrench.header.stamp, wrench.header.frame_id = stamp, "tool"
+        wrench.wrench.force.z = state.measured_force_n
+        self.wrench_publisher.publish(wrench)
+        self._record_telemetry(state)
+        if self.debug_streams:
+            truth = WrenchStamped()
+            truth.header.stamp, truth.header.frame_id = stamp, "tool"
+            truth.wrench.force.z = state.force_n
+            self.truth_publisher.publish(truth)
         if state.strut_lengths_m is not None:
-            joints = JointState(name=self.strut_names, position=state.strut_lengths_m.tolist(),
-                                velocity=state.strut_speeds_m_s.tolist())
-            joints.header.stamp = stamp
-            self.strut_publisher.publish(joints)
-            self.deflection_publisher.publish(Float64(data=state.deflection_mm))
-        if state.centre_mm is not None:
+            if self.strut_publisher.get_subscription_count():
+                joints = JointState(name=self.strut_names, position=state.strut_lengths_m.tolist(),
+                                    velocity=state.strut_speeds_m_s.tolist())
+                joints.header.stamp = stamp
+                self.strut_publisher.publish(joints)
+            if self.debug_streams:
+                self.deflection_publisher.publish(Float64(data=state.deflection_mm))
+        if state.centre_mm is not None and self.debug_streams:
             centre = PointStamped()
             centre.header.stamp, centre.header.frame_id = stamp, "bead"
             centre.point.x, centre.point.z = state.centre_mm
             self.centre_publisher.publish(centre)
         self.timing.sent(time.monotonic())
+
+    def _record_telemetry(self, state, always: bool = False) -> None:
+        if not (always or self.telemetry_publisher.get_subscription_count()):
+            self.telemetry.clear()
+            return
+        if self.telemetry and self.telemetry[-1][0] == state.time_s:
+            return  # the same state sent again (lock-step start-up)
+        centre = state.centre_mm or (math.nan, math.nan)
+        self.telemetry.append((state.time_s, state.measured_force_n, state.force_n, state.table_position_mm,
+                               state.deflection_mm, *centre, state.strut_lengths_m))
+        if len(self.telemetry) * self.period_s >= self.get_parameter("telemetry_period_s").value - 1e-9:
+            self._flush_telemetry()
+
+    def _flush_telemetry(self) -> None:
+        if not self.telemetry:
+            return
+        samples, self.telemetry = self.telemetry, []
+        columns = list(zip(*samples))
+        msg = PlantTelemetry(strut_names=self.strut_names, time_s=list(columns[0]), measured_force_n=list(columns[1]),
+                             true_force_n=list(columns[2]), table_position_mm=list(columns[3]),
+                             deflection_mm=list(columns[4]), centre_x_mm=list(columns[5]),
+                             centre_height_mm=list(columns[6]))
+        if all(lengths is not None for lengths in columns[7]):
+            msg.strut_lengths_m = np.concatenate(columns[7]).tolist()
+        msg.header.stamp = time_msg(samples[-1][0])
+        self.telemetry_publisher.publish(msg)
 
     def _report(self) -> None:
         wall = (self.loop_end or time.monotonic()) - self.loop_start if self.loop_start is not None else math.nan

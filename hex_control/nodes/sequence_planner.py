@@ -33,6 +33,7 @@ from pathlib import Path
 
 import yaml
 from action_msgs.msg import GoalStatus
+from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticStatus
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -46,7 +47,7 @@ from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, 
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
-from hex_control.nodes.runtime import run_node
+from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 
@@ -102,6 +103,7 @@ class SequencePlannerNode(Node):
         self._unacknowledged = None  # (the latest PassCommand until the pass planner has it, wall s sent)
         self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
         self._last_prediction_stamp = None
+        self._result_stamp = TimeMsg()  # of the latest pass result applied (plant time)
 
         self.command_pub = self.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
         self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", 10)
@@ -113,7 +115,7 @@ class SequencePlannerNode(Node):
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    handle_accepted_callback=self._on_accepted,
                                    cancel_callback=self._on_cancel)
-        self.create_timer(1.0, self._watchdog)
+        wall_timer(self, 1.0, self._watchdog)
         self._resume()
 
     # -- jobs ------------------------------------------------------------------------------
@@ -184,7 +186,7 @@ class SequencePlannerNode(Node):
             self._finish()
             return
         command = PassCommand()
-        command.header.stamp = self.get_clock().now().to_msg()
+        command.header.stamp = self._result_stamp  # the plant time of the state decided on
         command.job_id = self.job.goal.job_id
         command.pass_index = decision["pass_index"]
         command.normal_force_n = decision["force_n"]
@@ -264,6 +266,7 @@ class SequencePlannerNode(Node):
             return
         job.apply_result(msg.pass_index, msg.measured_cut_depth_mm, msg.duration_s, msg.status == PassResult.COMPLETED)
         self._unacknowledged = None
+        self._result_stamp = msg.header.stamp
         if msg.burn_detected:
             self.diagnostics.warn(f"burn reported on pass {msg.pass_index}")
         stamp = _stamp_ns(msg.header.stamp)

@@ -12,7 +12,7 @@ import numpy as np
 from hex_control.grinding.tool_path import BeadFrame
 from hex_control.kinematics import Pru3Geometry, StewartGeometry
 from hex_control.kinematics import pru3 as pru3_kinematics
-from hex_control.kinematics.stewart import forward_kinematics
+from hex_control.kinematics.stewart import TrackingForwardKinematics
 
 
 class ToolLocator:
@@ -22,7 +22,10 @@ class ToolLocator:
     def __init__(self, machine: StewartGeometry | Pru3Geometry, frame: BeadFrame):
         self.machine, self.frame = machine, frame
         self.is_pru3 = isinstance(machine, Pru3Geometry)
-        self.guess = np.asarray((200.0, 0.0, 0.0) if self.is_pru3 else machine.home_pose, float)
+        if self.is_pru3:
+            self.guess = np.asarray((200.0, 0.0, 0.0), float)
+        else:
+            self.forward = TrackingForwardKinematics(machine)
 
     def position_mm(self, lengths_m) -> np.ndarray:
         lengths_mm = np.asarray(lengths_m, float) * 1000.0
@@ -31,9 +34,7 @@ class ToolLocator:
             self.guess = q
             pose = pru3_kinematics.inverse_kinematics(self.machine, q)
             return pru3_kinematics.tool_positions_mm(pose, lengths_mm[3] if len(lengths_mm) > 3 else 0.0)[0]
-        pose, _, _ = forward_kinematics(self.machine, lengths_mm, self.guess, tolerance_mm=1e-7)
-        self.guess = pose
-        return pose[:3]
+        return self.forward.solve(lengths_mm)[:3]
 
     def centre_mm(self, lengths_m, deflection_mm: float = 0.0) -> tuple[float, float]:
         offset = self.position_mm(lengths_m) - np.asarray(self.frame.origin_mm)

@@ -102,3 +102,16 @@ class ShaperFilter:
         for c in range(self.channels):
             out[:, c] = np.convolve(padded[:, c], self._weights, mode="valid")
         return out
+
+
+def shape_whole(shaper: Shaper, dt_s: float, samples, interpolate: bool = False) -> np.ndarray:
+    """A whole sampled path (n, channels) shaped at once, as the online filter would
+    stream it from rest at the first sample, continued until it comes to rest at the last
+    (so the result is longer by the shaper's delay, in samples)."""
+    x = np.asarray(samples, float)
+    x = x.reshape(len(x), -1)
+    if len(x) == 0 or not np.all(np.isfinite(x)):
+        raise ValueError("need at least one sample, all finite")
+    shaping = ShaperFilter(shaper, dt_s, x.shape[1], interpolate)
+    tail = np.repeat(x[-1:], len(shaping._weights) - 1, axis=0)
+    return shaping.filter(np.concatenate([x, tail]))

@@ -1,0 +1,49 @@
+"""One seed, one part (issue 19, DESIGN.md 4.1): the whole graph in lock-step, run twice
+with the same seed, once on an idle machine and once with a CPU-burning process per core,
+gives bit-identical pass commands, measured cuts and final contours.
+
+Why it can: the tool path reaches the plant whole, as a strut trajectory, before the pass
+starts; the plant advances only when the force command answering its last state and the
+trajectory covering the next step are in hand; and between passes its clock stands still
+while the planners plan, so the time a pass waits for is the pass planner's fixed
+start_delay_s, not however long the planning took on a busy machine."""
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from hex_control.nodes.grind_job import JobSession
+
+BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
+RESET_TIME_S = 4.2
+BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end: pass\n"
+
+
+def _job(directory, seed: int) -> dict:
+    with JobSession(directory, seed=seed, plant_overrides=BEAD) as session:
+        session.start_job(15.0, RESET_TIME_S, job_id="determinism")
+        outcome = session.wait_for_outcome(400.0)
+    record = session.record
+    return {"outcome": outcome, "commands": record.commands,
+            "cuts": {k: (r["measured_cut_depth_mm"], r["duration_s"], r["stamp_s"]) for k, r in record.results.items()},
+            "contours": {k: (c.x_mm, c.z_mm) for k, (c, _) in record.contours.items()}}
+
+
+def test_the_same_seed_gives_the_same_part_on_an_idle_and_a_loaded_machine(ros_env, tmp_path):
+    idle = _job(tmp_path / "idle", seed=7)
+    burners = [subprocess.Popen([sys.executable, "-c", BURN]) for _ in range(os.cpu_count() or 2)]
+    try:
+        loaded = _job(tmp_path / "loaded", seed=7)
+    finally:
+        for burner in burners:
+            burner.kill()
+            burner.wait()
+    assert idle["outcome"]["passes"] >= 2
+    assert loaded["outcome"] == idle["outcome"]
+    assert loaded["commands"] == idle["commands"]  # every decision, to the last bit
+    assert loaded["cuts"] == idle["cuts"]  # measured cut, duration and the plant time it ended
+    assert sorted(loaded["contours"]) == sorted(idle["contours"])
+    for k, (x, z) in idle["contours"].items():
+        assert np.array_equal(loaded["contours"][k][0], x) and np.array_equal(loaded["contours"][k][1], z)
