@@ -15,6 +15,7 @@ import sys
 import numpy as np
 
 from hex_control.nodes.grind_job import JobSession
+from test_end_to_end import assert_contact_when_planned
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
 RESET_TIME_S = 4.2
@@ -26,6 +27,7 @@ def _job(directory, seed: int) -> dict:
         session.start_job(15.0, RESET_TIME_S, job_id="determinism")
         outcome = session.wait_for_outcome(400.0)
     record = session.record
+    assert_contact_when_planned(record)  # the controller held each pass's force trajectory in time
     return {"outcome": outcome, "commands": record.commands,
             "cuts": {k: (r["measured_cut_depth_mm"], r["duration_s"], r["stamp_s"]) for k, r in record.results.items()},
             "contours": {k: (c.x_mm, c.z_mm) for k, (c, _) in record.contours.items()}}

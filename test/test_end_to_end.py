@@ -63,6 +63,17 @@ def assert_passes_as_planned(record, outcome):
     assert outcome["material_remaining_mm"] > -0.02
 
 
+def assert_contact_when_planned(record):
+    """In every pass the measured force rises when the planned one does (within the loop's
+    lag): the force controller held the pass's trajectory before the plant started it."""
+    force = np.asarray(record.force)
+    for k, (grind_start_s, times_s, forces_n) in record.trajectories.items():
+        planned = grind_start_s + np.asarray(times_s)[np.argmax(np.asarray(forces_n) > 10.0)]
+        after = force[force[:, 0] >= grind_start_s - 1.0]
+        touched = after[np.argmax(after[:, 1] > 5.0), 0]
+        assert abs(touched - planned) < 0.5, f"pass {k}: planned contact at {planned:.2f} s, measured {touched:.2f} s"
+
+
 STEADY = {**BEAD, "specific_energy_cv": 0.0}
 
 
@@ -75,6 +86,7 @@ def test_a_job_on_the_3pru_head_ends_as_the_policy_intends(ros_env, tmp_path):
         outcome = session.wait_for_outcome(400.0)
     assert_passes_as_planned(session.record, outcome)
     assert_consistent(session.record, outcome)
+    assert_contact_when_planned(session.record)
 
 
 def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
@@ -90,6 +102,7 @@ def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
     assert "resumed job" in restarted_log
     assert_passes_as_planned(session.record, outcome)
     assert_consistent(session.record, outcome)
+    assert_contact_when_planned(session.record)
 
 
 def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros_env, tmp_path):

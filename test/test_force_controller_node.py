@@ -83,3 +83,31 @@ def test_stale_measurement_trips_and_nan_is_rejected(ros, loop):
     assert plant.commands[-1] == -2.0
     assert controller.diagnostics.counters["watchdog_trips"] >= 1
     wait_until(lambda: controller.diagnostics.counters["rejected_measurement"] >= 1, 2.0, what="NaN counted")
+
+
+def test_negative_stamps_are_refused_not_a_crash(ros):
+    """rclpy's Time.from_msg raises on sec < 0: a wrench or a force trajectory stamped before
+    the epoch is refused and counted, and the controller answers the next good measurement."""
+    from hex_control.nodes.interfaces import LATCHED
+    from hex_control_msgs.msg import ForceTrajectory
+
+    controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
+        Parameter("trigger", value="measurement")]))
+    node = ros.node("negative_stamps")
+    commands = ros.collect(Float64, "/plant/force_axis_command", 100)
+    wrenches = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
+    trajectories = node.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+    ros.wait_for_match(node, "/plant/wrench", subscribers=1)
+    bad_trajectory = ForceTrajectory(time_from_start_s=[0.0, 1.0], normal_force_n=[10.0, 10.0])
+    bad_trajectory.header.stamp.sec = -1
+    trajectories.publish(bad_trajectory)
+    bad_wrench = WrenchStamped()
+    bad_wrench.header.stamp.sec = -5
+    wrenches.publish(bad_wrench)
+    good = WrenchStamped()
+    good.header.stamp.sec = 1
+    wait_until(lambda: controller.diagnostics.counters["rejected_measurement"] >= 1, 5.0, what="the bad wrench")
+    wait_until(lambda: controller.diagnostics.counters["rejected_trajectory"] >= 1, 5.0, what="the bad trajectory")
+    wrenches.publish(good)
+    wait_until(lambda: commands, 5.0, what="the answer to the good wrench")
+    assert commands[-1].data == -2.0  # no setpoint: retracted

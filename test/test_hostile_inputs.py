@@ -61,7 +61,7 @@ UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematic
     ("/load_predictor/pass/prediction", LoadPrediction, 10), ("/pass_planner/status", DiagnosticStatus, LATCHED),
     ("/motion/tool_path_raw", ToolPath, LATCHED), ("/motion/tool_path", ToolPath, LATCHED)]
 PLANT = [("/plant/force_axis_command", Float64, 100), ("/plant/strut_command", JointState, 100),
-         ("/plant/strut_trajectory", JointTrajectory, LATCHED)]
+         ("/plant/strut_trajectory", JointTrajectory, LATCHED), ("/force_controller/status", DiagnosticStatus, LATCHED)]
 
 
 def fuzz(session, node, topics, examples: int) -> None:

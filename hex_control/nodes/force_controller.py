@@ -10,12 +10,15 @@ use_sim_time is set); ``measurement`` runs it once per received wrench, with the
 stamp as the time -- what the plant's lock-step mode needs for a deterministic loop.
 
 Topics:
-    /grinding/force_trajectory  hex_control_msgs/ForceTrajectory  in  desired force vs time
-                                 (time_from_start_s measured from header.stamp)
+    /grinding/force_trajectory  hex_control_msgs/ForceTrajectory  in  (latched) desired force vs
+                                 time (time_from_start_s measured from header.stamp)
     ~/setpoint                   std_msgs/Float64                  in  a direct desired force (N)
     /plant/wrench                geometry_msgs/WrenchStamped       in  measured force, wrench.force.z (N)
     /load_predictor/force/prediction  LoadPrediction              in  feed-forward (optional)
     /plant/force_axis_command    std_msgs/Float64                  out table position command (mm)
+    ~/status                     diagnostic_msgs/DiagnosticStatus  out (latched) "trajectory" with the
+                                 job_id and pass_index of the force trajectory it holds: the plant
+                                 in lock-step starts a pass only once its controller has it
     /diagnostics
 
 Watchdog: when the setpoint or the measurement is older than its timeout, the command
@@ -29,6 +32,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
@@ -82,6 +86,7 @@ class ForceControllerNode(Node):
         self.feed_forward_n = 0.0
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
         self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
+        self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         # latched: a controller that matches the pass planner late still gets the pass it must run
         self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
         self.create_subscription(Float64, "~/setpoint", self._on_setpoint, 10)
@@ -94,17 +99,20 @@ class ForceControllerNode(Node):
     # -- inputs ----------------------------------------------------------------------------
     def _reject(self, what: str) -> None:
         self.diagnostics.count(f"rejected_{what}")
-        self.get_logger().warning(f"non-finite {what} rejected", throttle_duration_sec=1.0)
+        self.get_logger().warning(f"malformed {what} rejected", throttle_duration_sec=1.0)
 
     def _on_trajectory(self, msg: ForceTrajectory) -> None:
         t, f = np.asarray(msg.time_from_start_s, float), np.asarray(msg.normal_force_n, float)
         if t.size == 0 or t.shape != f.shape or not (np.all(np.isfinite(t)) and np.all(np.isfinite(f))) \
-                or np.any(np.diff(t) <= 0) or np.any(f < 0):
+                or np.any(np.diff(t) <= 0) or np.any(f < 0) or msg.header.stamp.sec < 0:
             self._reject("trajectory")
             return
         self.trajectory = (Time.from_msg(msg.header.stamp), t, f)
         self.direct_setpoint = None
         self.setpoint_time = self.get_clock().now()
+        self.status_publisher.publish(DiagnosticStatus(
+            level=DiagnosticStatus.OK, name=self.get_fully_qualified_name(), message="trajectory",
+            values=[KeyValue(key="job_id", value=msg.job_id), KeyValue(key="pass_index", value=str(msg.pass_index))]))
 
     def _on_setpoint(self, msg: Float64) -> None:
         if not (math.isfinite(msg.data) and msg.data >= 0):
@@ -114,7 +122,7 @@ class ForceControllerNode(Node):
         self.setpoint_time = self.get_clock().now()
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
-        if not math.isfinite(msg.wrench.force.z):
+        if not math.isfinite(msg.wrench.force.z) or msg.header.stamp.sec < 0:  # Time.from_msg raises on sec < 0
             self._reject("measurement")
             return
         if self.measurement_triggered:

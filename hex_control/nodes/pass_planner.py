@@ -176,11 +176,11 @@ class PassPlannerNode(Node):
         except (PlanningError, ValueError, FloatingPointError) as exc:
             self._refuse(command, str(exc), "unplannable")
         else:
-            self.checking = (command, (plan, path, process, contour_s), None, time.monotonic())
+            planned = (plan, path, process, contour_s)
             if self.reach_client is None:
-                self._publish(command, *self.checking[1])
-                self.checking = None
+                self._publish(command, *planned)
             else:
+                self.checking = (command, planned, None, time.monotonic())
                 self._check_reach()
         self._try_plan()
 

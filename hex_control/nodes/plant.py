@@ -8,7 +8,9 @@ Modes (``mode``):
   as the graph allows. Until the first command arrives the state is re-sent every
   ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
   With a workpiece (``grinding``) sim time also never outruns the trajectories: the plant
-  advances only while a pass runs, or is announced and its strut trajectory is held. Between
+  advances only while a pass runs, or is announced, its strut trajectory is held and the
+  force controller says it holds the pass's force trajectory (``controller_status_topic``,
+  '' = do not wait for it). Between
   passes the clock stands still while the planners plan, and the time a pass waits for is
   the pass planner's fixed ``start_delay_s``: one seed, one result, at any machine load.
 - ``realtime``: advances every control period of wall time divided by ``real_time_factor``
@@ -64,6 +66,8 @@ Topics:
     /plant/tool_centre          geometry_msgs/PointStamped   out  with ``debug_streams``: disk centre in the
                                                                   bead frame (x, H mm in x, z)
     /grinding/force_trajectory  hex_control_msgs/ForceTrajectory in  announces a pass and its timing
+    /force_controller/status    diagnostic_msgs/DiagnosticStatus in  (latched) the pass whose force
+                                                                  trajectory the controller holds
 """
 
 from __future__ import annotations
@@ -76,6 +80,7 @@ from collections import deque
 
 import numpy as np
 
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped, WrenchStamped
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
@@ -130,6 +135,7 @@ class PlantNode(Node):
                               ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
                               ("end_time_s", 0.0), ("report_file", ""), ("clock_period_s", 0.05),
                               ("telemetry_period_s", 0.1), ("debug_streams", True),
+                              ("controller_status_topic", "/force_controller/status"),
                               ("table_start_mm", -1.0), ("strut_names", [""]), ("pru3_drive", "lspd"),
                               *CELL_PARAMETERS,
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
@@ -193,6 +199,10 @@ class PlantNode(Node):
             self.result_publisher = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
             self.centre_publisher = self.create_publisher(PointStamped, "/plant/tool_centre", STREAM)
             self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+            self.controller_holds = deque(maxlen=HELD_TRAJECTORIES)  # (job_id, pass_index) the controller has
+            if p("controller_status_topic"):
+                self.create_subscription(DiagnosticStatus, p("controller_status_topic"), self._on_controller_status,
+                                         LATCHED)
             self.contour_publisher.publish(self._contour_message(cell.contour, "", 0))
         if self.mode == "realtime":
             self.pacer = RealTimePacer(self.period_s, p("real_time_factor"))
@@ -234,6 +244,14 @@ class PlantNode(Node):
         except ValueError as error:
             self.diagnostics.count("rejected_trajectory")
             self.get_logger().warning(f"force trajectory rejected: {error}")
+        self._lockstep_step()
+
+    def _on_controller_status(self, msg: DiagnosticStatus) -> None:
+        values = {pair.key: pair.value for pair in msg.values}
+        if msg.message != "trajectory" or not values.get("pass_index", "").isdigit():
+            self.diagnostics.count("ignored_controller_status")
+            return
+        self.controller_holds.append((values.get("job_id", ""), int(values["pass_index"])))
         self._lockstep_step()
 
     def _on_strut_trajectory(self, msg: JointTrajectory) -> None:
@@ -301,11 +319,15 @@ class PlantNode(Node):
     # -- stepping --------------------------------------------------------------------------
     def _covered(self) -> bool:
         """May sim time advance? Always, but in lock-step with a workpiece: only while a pass
-        runs, or is announced and the strut trajectory that starts it is held."""
+        runs, or is announced with the strut trajectory that starts it held and its force
+        trajectory in the controller's hands."""
         if self.mode != "lockstep" or self.monitor is None or self.monitor.running is not None:
             return True
         scheduled = self.monitor.scheduled
-        return scheduled is not None and any(abs(t.start_s - scheduled.path_start_s) < 1e-6 for t in self.trajectories)
+        if scheduled is None or not any(abs(t.start_s - scheduled.path_start_s) < 1e-6 for t in self.trajectories):
+            return False
+        return (not self.get_parameter("controller_status_topic").value
+                or (scheduled.job_id, scheduled.pass_index) in self.controller_holds)
 
     def _lockstep_step(self) -> None:
         if self.mode != "lockstep" or not self.answer_ready:
