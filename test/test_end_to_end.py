@@ -99,7 +99,9 @@ def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
         session.graph.start("sequence_planner")
         outcome = session.wait_for_outcome(400.0)
         restarted_log = session.graph.log_tail("sequence_planner", 200)
+        logs = {name: session.graph.log_tail(name, 15) for name in ("plant", "pass_planner", "force_controller")}
     assert "resumed job" in restarted_log
+    assert outcome["reason"] in ("done", "quit"), (outcome, restarted_log, logs)  # the nodes' say, if it fails
     assert_passes_as_planned(session.record, outcome)
     assert_consistent(session.record, outcome)
     assert_contact_when_planned(session.record)

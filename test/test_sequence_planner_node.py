@@ -201,11 +201,15 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path
     commands = {}  # the last command for each pass
     ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: commands.update(
         {c.pass_index: c}), RESULTS)  # depth 10: keep them all
+    # a K1 source from the start: after each result the planner waits (prediction_wait_s) for its
+    # prediction, so pass 2 is decided with the K1 below, not before it arrives (otherwise the dead
+    # planner's pass-2 command and the resumed one's, from two writers, may arrive in either order)
+    k1_node = ros.node("k1_source")
+    k1 = k1_node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    ros.wait_for_match(k1_node, "/load_predictor/pass/prediction", subscribers=1)
     send(ros, GrindBead.Goal(job_id="bead3", bead_height_mm=1.9, bead_width_mm=12.5,
                              bead_length_mm=300.0, deadline_s=120.0, process_yaml="reset_time_s: 5.0"))
-    wait_until(lambda: len(executor.answered) == 2, 10.0, what="two passes")
-    k1 = ros.node("k1_source").create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
-    ros.wait_for_match(ros.node("k1_source"), "/load_predictor/pass/prediction", subscribers=1)
+    wait_until(lambda: len(executor.answered) == 2, 15.0, what="two passes")
     k1.publish(LoadPrediction(quantity="specific_energy_j_mm3", prediction=12.0))  # the disk is duller
     log = tmp_path / "jobs" / "bead3.jsonl"
     wait_until(lambda: '"type": "model"' in log.read_text(), 10.0, what="the K1 update in the job log")
