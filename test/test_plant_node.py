@@ -25,6 +25,15 @@ def _stamp_s(msg) -> float:
     return msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
 
 
+def _plant_counter(diagnostics, key: str):
+    """The plant's latest value of a /diagnostics counter, or None."""
+    for array in reversed(diagnostics):
+        for status in array.status:
+            if status.name == "/plant":
+                return {v.key: v.value for v in status.values}.get(key)
+    return None
+
+
 def _lockstep_run(ros, spawn, end_time_s: float, trajectory_s: float = 10.0) -> list[tuple[float, float]]:
     """Controller, then a 20 N trajectory from 0.1 s for ``trajectory_s`` of sim time, then the plant;
     returns (stamp, true force) until the plant stops at ``end_time_s``."""
@@ -125,13 +134,8 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
     assert list(states[-1].name) == ["strut_0", "strut_1", "strut_2"]
     commands.publish(JointState(name=["strut_0", "strut_1", "strut_2"], position=[0.0, 0.1, 0.1]))
 
-    def plant_rejections():
-        for array in reversed(diagnostics):
-            for status in array.status:
-                if status.name == "/plant":
-                    return {v.key: v.value for v in status.values}.get("rejected_strut_command")
-        return None
-    wait_until(lambda: plant_rejections() == "1", 5.0, what="the refused command to be counted")
+    wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0,
+               what="the refused command to be counted")
     time.sleep(0.2)
     assert np.abs(np.array(states[-1].position) - target).max() < 1e-9  # still where it was
 
@@ -164,11 +168,6 @@ def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
     assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)  # followed through the servos
     publisher.publish(joint_trajectory_message(time_msg(0.5), names, 0.005, ramp[::-1]))
 
-    def counted():
-        for array in reversed(diagnostics):
-            for status in array.status:
-                if status.name == "/plant":
-                    return {v.key: v.value for v in status.values}.get("late_strut_trajectory")
-        return None
-    wait_until(lambda: counted() == "1", 5.0, what="the late trajectory to be counted")
+    wait_until(lambda: _plant_counter(diagnostics, "late_strut_trajectory") == "1", 5.0,
+               what="the late trajectory to be counted")
     assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)

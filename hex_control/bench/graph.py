@@ -12,6 +12,7 @@ import os
 import tempfile
 import time
 from pathlib import Path
+from unittest import mock
 
 from hex_control.bench import benchmark
 
@@ -32,12 +33,8 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
     """One job on a fresh graph whose nodes spin on ``executor``; figures of the run."""
     from hex_control.nodes.grind_job import JobSession
 
-    previous = os.environ.get("HEX_EXECUTOR")
-    os.environ["HEX_EXECUTOR"] = executor
-    try:
+    with mock.patch.dict(os.environ, HEX_EXECUTOR=executor):  # the graph's processes take it at start
         session = JobSession(output, seed, plant_overrides={"bead_length_mm": bead_length_mm})
-    finally:
-        os.environ.pop("HEX_EXECUTOR") if previous is None else os.environ.update(HEX_EXECUTOR=previous)
     with session:
         session.start_job(deadline_s, reset_time_s)
         processes = dict(session.graph.processes)

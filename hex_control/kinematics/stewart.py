@@ -388,11 +388,13 @@ class TrackingForwardKinematics:
         """The pose (6,) whose strut lengths are ``lengths_mm`` (within tolerance_mm)."""
         target = np.asarray(lengths_mm, float)
         q, lengths, jac = self.pose, self._lengths, self._jacobian
-        for _ in range(self.max_iterations):
+        for step in range(self.max_iterations + 1):
             error = target - lengths
             if np.abs(error).max() < self.tolerance_mm:
                 self.pose, self._lengths, self._jacobian = q, lengths, jac
                 return q.copy()
+            if step == self.max_iterations:
+                break
             try:
                 q = q + np.linalg.solve(jac, error)
             except np.linalg.LinAlgError:
@@ -400,8 +402,5 @@ class TrackingForwardKinematics:
             if not np.all(np.isfinite(q)):
                 break
             lengths, jac = _lengths_and_jacobian(self.geometry, q)
-        if np.abs(target - lengths).max() < self.tolerance_mm:
-            self.pose, self._lengths, self._jacobian = q, lengths, jac
-            return q.copy()
         self._reset(forward_kinematics(self.geometry, target, self.pose, self.tolerance_mm)[0])
         return self.pose.copy()

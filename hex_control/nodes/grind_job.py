@@ -27,14 +27,10 @@ from hex_control.config import config_file
 from hex_control.grinding.job_report import JobRecord
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
-from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message
+from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
-
-
-def _seconds(stamp) -> float:
-    return stamp.sec + stamp.nanosec * 1e-9
 
 
 class JobObserver(Node):
@@ -80,18 +76,18 @@ class JobObserver(Node):
                 "measured_cut_depth_mm": msg.measured_cut_depth_mm, "duration_s": msg.duration_s,
                 "mean_normal_force_n": msg.mean_normal_force_n, "peak_normal_force_n": msg.peak_normal_force_n,
                 "feed_speed_mm_s": msg.feed_speed_mm_s, "specific_energy_j_mm3": msg.specific_energy_j_mm3,
-                "burn": msg.burn_detected, "stall": msg.stall_detected, "stamp_s": _seconds(msg.header.stamp)}
+                "burn": msg.burn_detected, "stall": msg.stall_detected, "stamp_s": stamp_s(msg.header.stamp)}
 
     def _on_trajectory(self, msg: ForceTrajectory) -> None:
         if self._mine(msg.job_id):
             self.record.events.append(("trajectory", int(msg.pass_index)))
-            start = _seconds(msg.header.stamp)
+            start = stamp_s(msg.header.stamp)
             self.record.trajectories[int(msg.pass_index)] = (start, list(msg.time_from_start_s),
                                                              list(msg.normal_force_n))
             self.record.planned_cut_mm[int(msg.pass_index)] = msg.planned_cut_depth_mm
 
     def _on_k1(self, msg: LoadPrediction) -> None:
-        self.record.k1_predictions.append((_seconds(msg.header.stamp), msg.prediction, msg.drift_probability))
+        self.record.k1_predictions.append((stamp_s(msg.header.stamp), msg.prediction, msg.drift_probability))
 
     def _on_job_result(self, msg) -> None:
         if self.job_id is not None:

@@ -150,7 +150,8 @@ class InputShaperNode(Node):
             self.get_logger().warning(f"tool path of pass {msg.pass_index} rejected: {exc}")
             return
         shaped = shape_whole(self._shaper, msg.sample_period_s, rows, self.get_parameter("interpolate").value)
-        self._path_publisher.publish(tool_path_message(msg, shaped))
+        self._path_publisher.publish(tool_path_message(msg.header.stamp, msg.job_id, msg.pass_index,
+                                                       msg.sample_period_s, shaped))
         self.diagnostics.count("paths")
 
     def _on_sample(self, msg) -> None:

@@ -74,10 +74,10 @@ def tool_path_rows(msg: ToolPath) -> np.ndarray:
     return rows
 
 
-def tool_path_message(like: ToolPath, rows: np.ndarray) -> ToolPath:
-    """A ToolPath with ``like``'s header, identity and period and the poses ``rows``."""
-    msg = ToolPath(header=like.header, job_id=like.job_id, pass_index=like.pass_index,
-                   sample_period_s=like.sample_period_s)
+def tool_path_message(stamp: TimeMsg, job_id: str, pass_index: int, period_s: float, rows: np.ndarray) -> ToolPath:
+    """The poses ``rows`` (n, 6: x, y, z mm, roll, pitch, yaw rad) every ``period_s`` from ``stamp``."""
+    msg = ToolPath(job_id=job_id, pass_index=pass_index, sample_period_s=float(period_s))
+    msg.header.stamp, msg.header.frame_id = stamp, "machine"
     for k, name in enumerate(PATH_FIELDS):
         setattr(msg, name, rows[:, k].tolist())
     return msg

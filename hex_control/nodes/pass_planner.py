@@ -56,8 +56,8 @@ from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, PATH_FIELDS, RESULTS, contour_from_message, contour_to_message,
-                                          stamp_s, time_msg)
+from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message, contour_to_message, stamp_s,
+                                          time_msg, tool_path_message)
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
@@ -247,7 +247,10 @@ class PassPlannerNode(Node):
         msg.header.stamp = time_msg(start_s + path.grind_start_s)
         msg.header.frame_id = "bead"
         self.trajectory_pub.publish(msg)
-        self.path_pub.publish(_tool_path_message(command, path, start_s, self.config.frame.orientation_rpy_deg))
+        orientation = np.broadcast_to(np.radians(self.config.frame.orientation_rpy_deg), path.positions_mm.shape)
+        self.path_pub.publish(tool_path_message(time_msg(start_s), command.job_id, command.pass_index,
+                                                path.time_s[1] - path.time_s[0],
+                                                np.hstack([path.positions_mm, orientation])))
         self.diagnostics.count("planned")
         self.get_logger().info(f"pass {command.pass_index} of job {command.job_id!r} planned: "
                                f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s "
@@ -266,17 +269,6 @@ class PassPlannerNode(Node):
     def destroy_node(self):
         self.worker.shutdown(wait=False, cancel_futures=True)
         return super().destroy_node()
-
-
-def _tool_path_message(command: PassCommand, path, start_s: float, orientation_rpy_deg) -> ToolPath:
-    msg = ToolPath(job_id=command.job_id, pass_index=command.pass_index,
-                   sample_period_s=float(path.time_s[1] - path.time_s[0]))
-    msg.header.stamp, msg.header.frame_id = time_msg(start_s), "machine"
-    n = path.time_s.size
-    columns = [*path.positions_mm.T, *(np.full(n, a) for a in np.radians(orientation_rpy_deg))]
-    for name, column in zip(PATH_FIELDS, columns):
-        setattr(msg, name, column.tolist())
-    return msg
 
 
 def _checked_positions(path) -> np.ndarray:

@@ -113,5 +113,5 @@ def shape_whole(shaper: Shaper, dt_s: float, samples, interpolate: bool = False)
     if len(x) == 0 or not np.all(np.isfinite(x)):
         raise ValueError("need at least one sample, all finite")
     shaping = ShaperFilter(shaper, dt_s, x.shape[1], interpolate)
-    tail = np.repeat(x[-1:], len(shaping._weights) - 1, axis=0)
+    tail = np.repeat(x[-1:], round(shaping.delay_s / dt_s), axis=0)
     return shaping.filter(np.concatenate([x, tail]))
