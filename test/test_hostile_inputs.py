@@ -16,7 +16,7 @@ from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory
 
 from hex_control.nodes.grind_job import JobSession
-from hex_control.nodes.interfaces import LATCHED
+from hex_control.nodes.interfaces import LATCHED, contour_to_message
 from hex_control.nodes.messages import message_class
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult, ToolPath
 
@@ -80,6 +80,23 @@ def fuzz(session, node, topics, examples: int) -> None:
     publish()
 
 
+def refuse_a_hostile_command(session, node) -> None:
+    """A non-finite command for a pass whose contour the pass planner holds: the fuzzed
+    commands rarely meet a fuzzed contour of their own pass, so this one is sent on purpose."""
+    bead, width = session.record.contours[0]
+    contour_pub = node.create_publisher(Contour, "/grinding/contour", LATCHED)
+    command_pub = node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
+    refused = []
+    node.create_subscription(PassResult, "/grinding/pass_result",
+                             lambda m: refused.append(m) if m.job_id == "hostile" else None, 10)
+    contour_pub.publish(contour_to_message(bead, "hostile", 0, width))
+    session.spin_until(lambda: contour_pub.get_subscription_count() > 0 and command_pub.get_subscription_count() > 0,
+                       10.0, "the pass planner")
+    contour_pub.publish(contour_to_message(bead, "hostile", 0, width))
+    command_pub.publish(PassCommand(job_id="hostile", pass_index=0, cut_depth_mm=math.nan, feed_speed_mm_s=10.0))
+    session.spin_until(lambda: any(m.status == PassResult.REJECTED for m in refused), 20.0, "the refusal")
+
+
 def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
     with JobSession(tmp_path, plant_overrides={"bead_length_mm": 120.0}) as session:
         node = rclpy.create_node("fuzzer", context=session.context)
@@ -91,6 +108,7 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
             {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}), 100)
         session.spin_until(lambda: 0 in session.record.contours, 60.0, "the graph")
         fuzz(session, node, UPSTREAM, 2000)
+        refuse_a_hostile_command(session, node)
         session.spin_until(lambda: len(diagnostics) >= 7 and not session.graph.dead(), 10.0, "diagnostics")
         # nothing non-finite or beyond the controller's limits reached a command
         assert commands and all(math.isfinite(c) and -2.0 <= c <= 2.0 for c in commands)
