@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from hex_control.config import config_file
+from hex_control.grinding.part_quality import part_quality
 from hex_control.nodes.graph import graph_nodes
 from hex_control.nodes.grind_job import JobSession
 from ros_harness import wait_until
@@ -30,8 +31,8 @@ def mean_height(contour) -> float:
 
 def assert_consistent(record, outcome):
     """Each tier used what the one below measured: contiguous passes, one trajectory and
-    one result per pass, the scanner's profiles agree with the reported cuts, and the
-    planner's state after each pass is the measured one."""
+    one result per pass, the scanner's profiles agree with the reported cuts and part
+    figures, and the planner's state after each pass is the measured one."""
     passes = outcome["passes"]
     assert sorted(record.results) == list(range(passes))
     for kind in ("trajectory", "result"):
@@ -43,6 +44,9 @@ def assert_consistent(record, outcome):
         assert command["material_mm"] == pytest.approx(x, abs=1e-9)
         before, after = mean_height(record.contours[k][0]), mean_height(record.contours[k + 1][0])
         assert before - after == pytest.approx(result["measured_cut_depth_mm"], abs=1e-9)
+        reported = result["part_quality"]  # the part's local figures are those of the same scan
+        scanned = part_quality(record.contours[k + 1][0], reported["end_zone_mm"]).as_dict()
+        assert reported == pytest.approx({**scanned, "end_zone_mm": reported["end_zone_mm"]}, abs=1e-9)
         x -= result["measured_cut_depth_mm"]
     assert outcome["material_remaining_mm"] == pytest.approx(x, abs=1e-9)
 

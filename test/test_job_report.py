@@ -84,3 +84,30 @@ def test_report_of_a_record_writes_its_json_and_k1_plot(tmp_path):
     assert json.loads((tmp_path / "job.json").read_text())["ended_as_intended"]
     assert (tmp_path / "specific_energy.png").stat().st_size > 10_000
     assert not (tmp_path / "contours.png").exists()  # nothing recorded, nothing drawn
+
+
+def test_the_finished_parts_are_judged_by_their_worst_points_not_their_mean():
+    """Issue 20: the statistics say how deep the worst gouge went and how many parts lie
+    in the buyer's +-0.1 mm band (seed 002 section 3); jobs from before the scans count not."""
+    def part(gouge, deviation):
+        return {"gouge_mm": gouge, "ends_gouge_mm": gouge, "highest_mm": deviation, "rms_mm": deviation / 3,
+                "max_deviation_mm": max(gouge, deviation)}
+    summaries = [{**_summary("done", 0.01, 0.0), "part_quality": part(0.02, 0.05)},
+                 {**_summary("done", 0.01, 0.0), "part_quality": part(0.45, 0.2)},
+                 _summary("quit", 0.04, 2.0)]
+    stats = job_statistics(summaries, tolerance_mm=0.025)
+    assert stats["parts_scanned"] == 2 and stats["parts_within_tolerance"] == 1
+    assert stats["parts_gouged_beyond_tolerance"] == 1
+    assert stats["gouge_mm"] == {"mean": pytest.approx(0.235), "worst": 0.45}
+    assert stats["highest_mm"]["worst"] == 0.2
+
+
+def test_the_last_scan_is_the_part_and_a_refused_pass_has_none(tmp_path):
+    nan = dict.fromkeys(("gouge_mm", "highest_mm", "max_deviation_mm"), math.nan)
+    scanned = {"gouge_mm": 0.03, "gouge_x_mm": 8.0, "highest_mm": 0.34, "highest_x_mm": 4.0, "max_deviation_mm": 0.34}
+    base = {"specific_energy_j_mm3": 8.3, "stamp_s": 1.0, "burn": False, "stall": False}
+    record = JobRecord(results={0: {**base, "part_quality": scanned}, 1: {**base, "part_quality": nan}},
+                       outcome={"reason": "done", "total_charge": 0.0})
+    summary = record.summary()
+    assert summary["part_quality"] == scanned and not summary["part_within_tolerance"]
+    assert JobRecord(results={0: base}).part_quality is None

@@ -170,7 +170,7 @@ def test_a_whole_path_is_shaped_as_the_stream_would_be_until_it_rests():
     path = np.cumsum(rng.normal(size=(300, 6)), axis=0)
     shaper = design("zvd", 5.0, 0.02)
     for interpolate in (False, True):
-        whole = shape_whole(shaper, 0.005, path, interpolate)
+        whole, _ = shape_whole(shaper, 0.005, path, interpolate)
         online = ShaperFilter(shaper, 0.005, 6, interpolate)
         extra = len(whole) - len(path)
         streamed = np.array([online.step(row) for row in np.concatenate([path, np.repeat(path[-1:], extra, 0)])])
@@ -179,3 +179,25 @@ def test_a_whole_path_is_shaped_as_the_stream_would_be_until_it_rests():
         np.testing.assert_allclose(whole[-1], path[-1], atol=1e-9)  # it ends at rest on the last sample
     with pytest.raises(ValueError):
         shape_whole(shaper, 0.005, [[0.0, math.nan]])
+
+
+def test_a_whole_path_started_its_lag_early_is_on_time_at_constant_feed():
+    """The bead-end gouge of issue 20: the force trajectory is timed against the planned
+    path; the shaped path, started when the planned one starts, trails it by the ZVD's lag
+    (half its duration, 0.1 s at 5 Hz): 5.2 mm at 51.8 mm/s, where the demo's end-of-pass
+    force peak landed on finished parent (gouge 0.44 mm at x = 293 of 300 mm). Started the
+    lag early, it is on the planned path wherever the feed is constant."""
+    from hex_control.shaping.filter import shape_whole
+
+    dt, feed = 0.005, 51.8
+    t = np.arange(0.0, 4.0, dt)
+    x = np.clip(feed * (t - 1.0), 0.0, feed * 2.0)  # rest, 2 s at the feed, rest
+    shaper = design("zvd", 5.0, 0.0)
+    for interpolate in (False, True):
+        shaped, lag_s = shape_whole(shaper, dt, x[:, None], interpolate)
+        assert lag_s == pytest.approx(0.1, abs=dt / 2 if not interpolate else 1e-9)
+        steady = (t > 1.3) & (t < 2.9)
+        late = np.interp(t[steady], np.arange(len(shaped)) * dt, shaped[:, 0])  # started with the plan
+        on_time = np.interp(t[steady], np.arange(len(shaped)) * dt - lag_s, shaped[:, 0])  # started lag early
+        np.testing.assert_allclose(x[steady] - late, feed * lag_s, atol=1e-6)
+        np.testing.assert_allclose(on_time, x[steady], atol=1e-6)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
+from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.grinding.plots import plot_policy_map
 from hex_control.plotting import plt, save
 
@@ -51,13 +52,23 @@ class JobRecord:
         return self.outcome is not None and self.outcome["reason"] in ("done", "quit") \
             and sorted(self.results) == list(range(len(self.results)))
 
+    @property
+    def part_quality(self) -> dict | None:
+        """The part-quality figures of the last scan (PassResult.part_quality), None if none."""
+        scanned = [r["part_quality"] for _, r in sorted(self.results.items())
+                   if "part_quality" in r and math.isfinite(r["part_quality"]["gouge_mm"])]
+        return scanned[-1] if scanned else None
+
     def summary(self) -> dict:
         passes = [{"pass": i, **self.commands.get(i, {}), "pass_planner_cut_depth_mm": self.planned_cut_mm.get(i),
                    **{f"measured_{k}" if k in self.commands.get(i, {}) else k: v for k, v in self.results[i].items()}}
                   for i in sorted(self.results)]
         start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else math.nan
         results_in_order = [i for kind, i in self.events if kind == "result"]
+        quality = self.part_quality
         return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
+                "part_quality": quality,
+                "part_within_tolerance": quality is not None and quality["max_deviation_mm"] <= TOLERANCE_MM,
                 "ended_as_intended": self.intended, "passes": passes,
                 # each pass once, in order (a restarted planner must not repeat or skip one)
                 "passes_in_order": results_in_order == list(range(len(results_in_order))),
@@ -90,17 +101,33 @@ def write_report(record: JobRecord, out: Path, policy=None) -> dict:
 def _plot_contours(record: JobRecord, path: Path) -> None:
     if not record.contours:
         return
-    fig, ax = plt.subplots(figsize=(11, 4.5))
+    fig, (ax, deviation) = plt.subplots(2, 1, figsize=(11, 7), sharex=True, height_ratios=(3, 2))
     colours = plt.cm.viridis(np.linspace(0, 1, max(len(record.contours), 2)))
-    for colour, (index, (contour, _)) in zip(colours, sorted(record.contours.items())):
-        ax.plot(contour.x_mm, contour.z_mm, color=colour, lw=1.1,
-                label="initial" if index == 0 else f"after pass {index}")
     first = record.contours[min(record.contours)][0]
+    for colour, (index, (contour, _)) in zip(colours, sorted(record.contours.items())):
+        label = "initial" if index == 0 else f"after pass {index}"
+        ax.plot(contour.x_mm, contour.z_mm, color=colour, lw=1.1, label=label)
+        if index > 0:
+            deviation.plot(contour.x_mm, contour.z_mm - contour.parent_mm, color=colour, lw=1.1, label=label)
     ax.plot(first.x_mm, first.parent_mm, "k--", lw=0.8, label="parent surface")
-    ax.set_xlabel("x along the bead (mm)")
+    for axis in (ax, deviation):  # the buyer's band (seed 002 section 3)
+        offset = first.parent_mm if axis is ax else np.zeros_like(first.x_mm)
+        axis.fill_between(first.x_mm, offset - TOLERANCE_MM, offset + TOLERANCE_MM, color="tab:green", alpha=0.15,
+                          lw=0, label=f"+-{TOLERANCE_MM:g} mm of the parent")
     ax.set_ylabel("height (mm)")
     ax.set_title("Scanned profile after each pass")
     ax.legend(fontsize=8, ncol=2)
+    deviation.axhline(0.0, color="k", ls="--", lw=0.8)
+    quality = record.part_quality
+    if quality is not None:
+        deviation.plot([quality["gouge_x_mm"]], [-quality["gouge_mm"]], "rv",
+                       label=f"deepest gouge {quality['gouge_mm']:.3f} mm")
+    last = record.contours[max(record.contours)][0]
+    worst = float(np.max(np.abs(last.z_mm - last.parent_mm))) if len(record.contours) > 1 else TOLERANCE_MM
+    deviation.set_ylim(-max(worst, 2 * TOLERANCE_MM) * 1.2, max(worst, 2 * TOLERANCE_MM) * 1.2)
+    deviation.set_xlabel("x along the bead (mm)")
+    deviation.set_ylabel("above the parent (mm)")
+    deviation.legend(fontsize=8, ncol=3)
     save(fig, path, dpi=100)
 
 
@@ -206,5 +233,21 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             "charge_minus_expected_in_standard_errors": float((charges.mean() - expected.mean()) / se)
             if se and se > 0 else math.nan,
             "jobs_charged": int(np.sum(charges > 0)),
+            **_part_statistics([s.get("part_quality") for s in summaries]),
             "jobs_with_passes_out_of_order": int(sum(not s.get("passes_in_order", True) for s in summaries)),
             "planner_restarts": int(sum(s.get("planner_restarts", 0) for s in summaries))}
+
+
+def _part_statistics(qualities: list) -> dict:
+    """Mean and worst of the finished parts' local figures (mm), over the jobs that have them,
+    and how many parts lie inside the buyer's band."""
+    scanned = [q for q in qualities if q]
+    if not scanned:
+        return {}
+    figure = lambda name, worst: {"mean": float(np.mean([q[name] for q in scanned])),  # noqa: E731
+                                  "worst": float(worst([q[name] for q in scanned]))}
+    return {"parts_scanned": len(scanned), "gouge_mm": figure("gouge_mm", max), "ends_gouge_mm": figure("ends_gouge_mm", max),
+            "highest_mm": figure("highest_mm", max), "rms_mm": figure("rms_mm", max),
+            "max_deviation_mm": figure("max_deviation_mm", max),
+            "parts_gouged_beyond_tolerance": int(sum(q["gouge_mm"] > TOLERANCE_MM for q in scanned)),
+            "parts_within_tolerance": int(sum(q["max_deviation_mm"] <= TOLERANCE_MM for q in scanned))}

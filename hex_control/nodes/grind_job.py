@@ -25,9 +25,11 @@ from rclpy.node import Node
 
 from hex_control.config import config_file
 from hex_control.grinding.job_report import JobRecord
+from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
+from hex_control.nodes.messages import to_primitive
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
@@ -76,7 +78,8 @@ class JobObserver(Node):
                 "measured_cut_depth_mm": msg.measured_cut_depth_mm, "duration_s": msg.duration_s,
                 "mean_normal_force_n": msg.mean_normal_force_n, "peak_normal_force_n": msg.peak_normal_force_n,
                 "feed_speed_mm_s": msg.feed_speed_mm_s, "specific_energy_j_mm3": msg.specific_energy_j_mm3,
-                "burn": msg.burn_detected, "stall": msg.stall_detected, "stamp_s": stamp_s(msg.header.stamp)}
+                "burn": msg.burn_detected, "stall": msg.stall_detected, "stamp_s": stamp_s(msg.header.stamp),
+                "part_quality": to_primitive(msg.part_quality)}
 
     def _on_trajectory(self, msg: ForceTrajectory) -> None:
         if self._mine(msg.job_id):
@@ -107,17 +110,19 @@ class JobObserver(Node):
 def print_row(index: int, command: dict, result: dict, stall_guard_cut_mm: float | None = None) -> None:
     """One row of the pass table; ``stall_guard_cut_mm``: the depth the pass planner's stall
     guard planned instead of the command's, shown with a *."""
+    quality = result["part_quality"]
     cut = f"{command['cut_depth_mm']:>8.4f}" if stall_guard_cut_mm is None else f"{stall_guard_cut_mm:>7.4f}*"
     print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
           f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
           f"{cut} "
           f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
-          f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} {result['status']}", flush=True)
+          f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} "
+          f"{quality['gouge_mm']:>6.3f} {quality['highest_mm']:>6.3f} {result['status']}", flush=True)
 
 
 HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'K1 plan':>7} {'plan mm':>8} "
           f"{'meas mm':>8} "
-          f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} status")
+          f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} {'gouge':>6} {'high':>6} status")
 
 
 #: wall seconds the plant's clock may stand still during a pass before the job is given up:
@@ -284,6 +289,15 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
     return session.record
 
 
+def _part_text(summary: dict) -> str:
+    q = summary["part_quality"]
+    if q is None:
+        return "part not scanned"
+    return (f"part: gouge {q['gouge_mm']:.3f} mm at x = {q['gouge_x_mm']:.0f} mm, highest {q['highest_mm']:+.3f} mm, "
+            f"RMS {q['rms_mm']:.3f} mm ({'within' if summary['part_within_tolerance'] else 'outside'} "
+            f"+-{TOLERANCE_MM:g} mm)")
+
+
 def start_policy(record: JobRecord):
     """The policy the sequence planner solved for this goal at the start (same config)."""
     import dataclasses
@@ -366,7 +380,7 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         o = record.outcome
         print(f"job {seed + k}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
               f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
-              f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); "
+              f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {_part_text(summary)}; "
               f"{simulated:.0f} s of passes in {wall:.0f} s wall", flush=True)
     if jobs > 1:
         stats = job_statistics(summaries, charges.deadline.tolerance_mm)

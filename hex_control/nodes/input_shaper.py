@@ -4,7 +4,9 @@ structural mode (seed 003; library :mod:`hex_control.shaping`).
 Topics:
     /motion/tool_path_raw (ToolPath, latched)  in   a pass's whole tool path
     /motion/tool_path     (ToolPath, latched)  out  the same path shaped whole, longer by the
-                                                   shaper's delay (it ends at rest)
+                                                   shaper's delay (it ends at rest), stamped
+                                                   the shaper's lag early (on time at
+                                                   constant velocity)
     /motion/setpoint_raw (``input_topic``)     in   jogging: a stream of PoseStamped or
                                                    JointState (``input_type``)
     /motion/setpoint     (``output_topic``)    out  the same type, shaped, one message per input
@@ -33,7 +35,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import LATCHED, tool_path_message, tool_path_rows
+from hex_control.nodes.interfaces import LATCHED, stamp_s, time_msg, tool_path_message, tool_path_rows
 from hex_control.nodes.runtime import run_node
 from hex_control.shaping.filter import ShaperFilter, shape_whole
 from hex_control.shaping.optimize import DesignProblem, optimize
@@ -149,8 +151,9 @@ class InputShaperNode(Node):
             self.diagnostics.count("rejected_paths")
             self.get_logger().warning(f"tool path of pass {msg.pass_index} rejected: {exc}")
             return
-        shaped = shape_whole(self._shaper, msg.sample_period_s, rows, self.get_parameter("interpolate").value)
-        self._path_publisher.publish(tool_path_message(msg.header.stamp, msg.job_id, msg.pass_index,
+        shaped, lag_s = shape_whole(self._shaper, msg.sample_period_s, rows, self.get_parameter("interpolate").value)
+        start_s = max(0.0, stamp_s(msg.header.stamp) - lag_s)  # on time where it moves steadily
+        self._path_publisher.publish(tool_path_message(time_msg(start_s), msg.job_id, msg.pass_index,
                                                        msg.sample_period_s, shaped))
         self.diagnostics.count("paths")
 

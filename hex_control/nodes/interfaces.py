@@ -22,8 +22,10 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from hex_control.grinding.contour import Contour
+from hex_control.grinding.part_quality import PartQuality
 from hex_control.plant.strut_trajectory import StrutTrajectory
 from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import PartQuality as PartQualityMsg
 from hex_control_msgs.msg import ToolPath
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -55,6 +57,14 @@ def contour_from_message(msg: ContourMsg) -> Contour:
 def contour_to_message(contour: Contour, job_id: str, pass_index: int, width_mm: float) -> ContourMsg:
     return ContourMsg(job_id=job_id, pass_index=pass_index, bead_width_mm=float(width_mm),
                       x_mm=contour.x_mm.tolist(), z_mm=contour.z_mm.tolist(), parent_mm=contour.parent_mm.tolist())
+
+
+def part_quality_message(quality: PartQuality | None, end_zone_mm: float) -> PartQualityMsg:
+    """The figures of one scan; all NaN for ``None`` (nothing scanned)."""
+    fields = PartQualityMsg.get_fields_and_field_types()
+    values = dict.fromkeys(fields, float("nan")) if quality is None else quality.as_dict()
+    return PartQualityMsg(**{name: float(values[name]) for name in fields if name != "end_zone_mm"},
+                          end_zone_mm=float(end_zone_mm))
 
 
 def tool_path_rows(msg: ToolPath) -> np.ndarray:

@@ -56,8 +56,8 @@ from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message, contour_to_message, stamp_s,
-                                          time_msg, tool_path_message)
+from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message, contour_to_message,
+                                          part_quality_message, stamp_s, time_msg, tool_path_message)
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
@@ -227,7 +227,8 @@ class PassPlannerNode(Node):
         self.get_logger().warn(f"pass {command.pass_index} of job {command.job_id!r} refused: {reason}")
         self._status(command, DiagnosticStatus.ERROR, reason, {})
         result = PassResult(job_id=command.job_id, pass_index=command.pass_index, status=PassResult.REJECTED,
-                            reason=reason, specific_energy_j_mm3=math.nan)
+                            reason=reason, specific_energy_j_mm3=math.nan,
+                            part_quality=part_quality_message(None, math.nan))
         result.header.stamp = self.get_clock().now().to_msg()
         self.result_pub.publish(result)
 

@@ -93,12 +93,13 @@ from trajectory_msgs.msg import JointTrajectory
 from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.contour import Contour, weld_bead
+from hex_control.grinding.part_quality import part_quality
 from hex_control.grinding.variation import ProcessVariation
 from hex_control.kinematics import Pru3Geometry, load_machine
 from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, RESULTS, STREAM, TELEMETRY, contour_to_message, stamp_s,
-                                          strut_trajectory_from_message, time_msg)
+from hex_control.nodes.interfaces import (LATCHED, RESULTS, STREAM, TELEMETRY, contour_to_message,
+                                          part_quality_message, stamp_s, strut_trajectory_from_message, time_msg)
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
@@ -122,6 +123,7 @@ VARIATION_PARAMETERS = ("specific_energy_cv", "friction_cv", "dulling_per_pass",
 CELL_PARAMETERS = (("grinding", False), ("machine_file", str(config_file("machines/nist_ingersoll.yaml"))),
                    ("pass_planner_config", "pass_planner.yaml"), ("bead_file", ""), ("bead_length_mm", 300.0),
                    ("bead_height_mm", 1.0), ("bead_end_ramp_mm", 12.0), ("bead_ripple_mm", 0.05), ("bead_seed", 0),
+                   ("end_zone_mm", 15.0),  # the bead ends of the part-quality figures
                    ("burn_coefficient", 0.0), ("command_timeout_s", 0.1), ("retract_mm", -5.0), ("settle_deflection_mm", 0.01),
                    ("max_settle_s", 10.0), *((n, getattr(ProcessVariation(), n)) for n in VARIATION_PARAMETERS))
 
@@ -324,7 +326,10 @@ class PlantNode(Node):
         if self.mode != "lockstep" or self.monitor is None or self.monitor.running is not None:
             return True
         scheduled = self.monitor.scheduled
-        if scheduled is None or not any(abs(t.start_s - scheduled.path_start_s) < 1e-6 for t in self.trajectories):
+        # the motion of the whole pass in hand: a strut trajectory from the path's start (or
+        # earlier: a shaped path starts its shaper's lag early) to its end
+        if scheduled is None or not any(t.start_s <= scheduled.path_start_s + 1e-6 and t.end_s >= scheduled.path_end_s
+                                        for t in self.trajectories):
             return False
         return (not self.get_parameter("controller_status_topic").value
                 or (scheduled.job_id, scheduled.pass_index) in self.controller_holds)
@@ -376,6 +381,7 @@ class PlantNode(Node):
         if report is None:
             return
         m = report.measurement
+        end_zone_mm = min(self.get_parameter("end_zone_mm").value, m.contour_after.length_mm / 2)
         self.contour_publisher.publish(self._contour_message(m.contour_after, m.job_id, m.pass_index + 1))
         result = PassResult(job_id=m.job_id, pass_index=m.pass_index,
                             status=PassResult.ABORTED if report.aborted else PassResult.COMPLETED,
@@ -385,7 +391,8 @@ class PlantNode(Node):
                             feed_speed_mm_s=m.mean_feed_mm_s, specific_energy_j_mm3=m.specific_energy_j_mm3,
                             cut_depth_coefficient=(m.measured_cut_depth_mm * m.mean_feed_mm_s / m.mean_normal_force_n
                                                    if m.mean_normal_force_n > 0 else 0.0),
-                            burn_detected=m.burn_detected, stall_detected=m.stall_detected)
+                            burn_detected=m.burn_detected, stall_detected=m.stall_detected,
+                            part_quality=part_quality_message(part_quality(m.contour_after, end_zone_mm), end_zone_mm))
         result.header.stamp = time_msg(state.time_s)
         self.result_publisher.publish(result)
         self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
