@@ -111,3 +111,12 @@ def test_the_last_scan_is_the_part_and_a_refused_pass_has_none(tmp_path):
     summary = record.summary()
     assert summary["part_quality"] == scanned and not summary["part_within_tolerance"]
     assert JobRecord(results={0: base}).part_quality is None
+
+
+def test_the_plan_is_held_against_what_the_plant_cut_per_pass():
+    passes = [{"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": None, "measured_cut_depth_mm": 0.45},
+              {"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": 0.2, "measured_cut_depth_mm": 0.22},
+              {"status": "aborted", "cut_depth_mm": 0.5, "measured_cut_depth_mm": 0.1}]  # not a pass as planned
+    error = job_statistics([{**_summary("done", 0.01, 0.0), "passes": passes}], 0.025)["cut_depth_error_mm"]
+    assert error["passes"] == 2 and error["mean_absolute"] == pytest.approx(0.035)
+    assert error["mean_absolute_relative"] == pytest.approx(0.1) and error["mean_relative"] == pytest.approx(0.0)

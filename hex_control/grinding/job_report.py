@@ -234,6 +234,7 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             if se and se > 0 else math.nan,
             "jobs_charged": int(np.sum(charges > 0)),
             **_part_statistics([s.get("part_quality") for s in summaries]),
+            **_plan_error([p for s in summaries for p in s.get("passes", [])]),
             "jobs_with_passes_out_of_order": int(sum(not s.get("passes_in_order", True) for s in summaries)),
             "planner_restarts": int(sum(s.get("planner_restarts", 0) for s in summaries))}
 
@@ -251,3 +252,17 @@ def _part_statistics(qualities: list) -> dict:
             "max_deviation_mm": figure("max_deviation_mm", max),
             "parts_gouged_beyond_tolerance": int(sum(q["gouge_mm"] > TOLERANCE_MM for q in scanned)),
             "parts_within_tolerance": int(sum(q["max_deviation_mm"] <= TOLERANCE_MM for q in scanned))}
+
+
+def _plan_error(passes: list) -> dict:
+    """Measured against planned cut depth over the completed passes: the mean absolute
+    error (mm) and relative to the plan (the thesis sees about 10 % from the process)."""
+    pairs = [(p.get("pass_planner_cut_depth_mm") or p["cut_depth_mm"], p["measured_cut_depth_mm"]) for p in passes
+             if p.get("status") == "completed" and "cut_depth_mm" in p]
+    if not pairs:
+        return {}
+    planned, measured = np.array(pairs).T
+    return {"cut_depth_error_mm": {"mean_absolute": float(np.mean(np.abs(measured - planned))),
+                                   "mean_absolute_relative": float(np.mean(np.abs(measured - planned) / planned)),
+                                   "mean_relative": float(np.mean((measured - planned) / planned)),
+                                   "passes": len(pairs)}}
