@@ -125,7 +125,8 @@ def test_shaping_the_reset_move_shortens_the_reset_time():
     machine, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))
     plain = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, config.path)
     shaped = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, config.path, shaper=design("zvd", 5.0, 0.02))
-    nominal = 2 * config.path.approach_s + config.path.reset_s  # approach + retract + reset: 4 s
+    # approach + run-on + run-off + retract + reset: 4.5 s
+    nominal = 2 * config.path.approach_s + 2 * config.path.run_on_s + config.path.reset_s
     assert plain.peak_deflection_mm > 0.01 and plain.settle_s > 1.0
     assert shaped.peak_deflection_mm < 0.001 and shaped.settle_s == 0.0
     assert shaped.reset_time_s == pytest.approx(nominal + 0.2 + 0.005, abs=0.01)  # + ZVD delay, one sample

@@ -1,9 +1,17 @@
-"""The machine's path for one pass: approach, grind, retract and the reset move back.
+"""The machine's path for one pass: approach, run-on, grind, run-off, retract and the reset
+move back.
 
 The pass planner works in the bead's plane (x along the bead, z up, mm); ``BeadFrame``
 places that plane in the machine's frame. The tool point is the disk centre. Moves
 between rests follow a cosine blend (zero velocity at both ends); the reset move is what
 the input shaper shapes and what sets t_R.
+
+Run-on and run-off: the tool reaches the feed speed ``run_on_s`` before the grinding phase
+and keeps it ``run_on_s`` after, off the bead, at the phase's end heights. The input shaper
+spreads every change of speed over its duration (ZVD at 5 Hz: 0.2 s, centred on the
+change); started on the bead, the shaped tool would creep over the first and last
+millimetres while the force trajectory, a function of time, pressed as planned for full
+feed: a gouge at each end on the light finishing passes (issue 20).
 
 Units: mm, s; orientation as a unit quaternion (x, y, z, w).
 """
@@ -66,38 +74,47 @@ class PathTiming:
     approach_s: float = 1.0
     retract_mm: float = 20.0
     reset_s: float = 2.0
+    run_on_s: float = 0.25  # at feed before and after the grinding phase: more than half the shaper's duration
 
     def __post_init__(self):
-        if not (self.sample_period_s > 0 and self.approach_s > 0 and self.reset_s > 0 and self.retract_mm >= 0):
-            raise ValueError("need positive sample period, approach and reset times, and retract_mm >= 0")
+        if not (self.sample_period_s > 0 and self.approach_s > 0 and self.reset_s > 0 and self.retract_mm >= 0
+                and self.run_on_s >= 0):
+            raise ValueError("need positive sample period, approach and reset times, retract_mm >= 0 and "
+                             "run_on_s >= 0")
 
 
 def pass_tool_path(frame: BeadFrame, grind_time_s, centre_x_mm, height_mm,
                    timing: PathTiming = PathTiming()) -> ToolPath:
-    """Rest ``retract_mm`` above the grinding start, descend in ``approach_s``, follow the
-    planned (x, H) of the grinding phase, rise ``retract_mm`` in ``approach_s``, move back
-    above the start in ``reset_s``; sampled every ``sample_period_s``."""
+    """Rest ``retract_mm`` above the run-on's start, descend in ``approach_s``, run on at the
+    phase's first height and mean feed for ``run_on_s``, follow the planned (x, H) of the
+    grinding phase, run off as long at its last height, rise ``retract_mm`` in
+    ``approach_s``, move back above the run-on's start in ``reset_s``; sampled every
+    ``sample_period_s``."""
     t, x, h = (np.asarray(a, float) for a in (grind_time_s, centre_x_mm, height_mm))
     if not (t.ndim == 1 and t.size >= 2 and t.shape == x.shape == h.shape and np.all(np.diff(t) > 0)):
         raise ValueError("grinding phase: need increasing times with x and H of the same length")
-    sample_period_s, approach_s, retract_mm, reset_s = (timing.sample_period_s, timing.approach_s,
-                                                        timing.retract_mm, timing.reset_s)
+    sample_period_s, approach_s, retract_mm, reset_s, run_on_s = (
+        timing.sample_period_s, timing.approach_s, timing.retract_mm, timing.reset_s, timing.run_on_s)
 
     def samples(duration):
         return max(2, int(round(duration / sample_period_s)) + 1)
 
     n = samples(approach_s)
-    approach_x, approach_z = np.full(n, x[0]), h[0] + retract_mm * (1 - _blend(n))
     grind_t = np.arange(0.0, t[-1] - t[0] + sample_period_s / 2, sample_period_s)
     grind_x, grind_z = np.interp(grind_t, t - t[0], x), np.interp(grind_t, t - t[0], h)
-    retract_x, retract_z = np.full(n, x[-1]), h[-1] + retract_mm * _blend(n)
+    r = int(round(run_on_s / sample_period_s))
+    run = np.arange(r + 1) * sample_period_s * (x[-1] - x[0]) / (t[-1] - t[0])  # at the mean feed
+    run_on_x, run_off_x = x[0] - run[::-1], x[-1] + run
+    approach_x, approach_z = np.full(n, run_on_x[0]), h[0] + retract_mm * (1 - _blend(n))
+    retract_x, retract_z = np.full(n, run_off_x[-1]), h[-1] + retract_mm * _blend(n)
     m = samples(reset_s)
-    reset_x, reset_z = x[-1] + (x[0] - x[-1]) * _blend(m), np.full(m, h[-1] + retract_mm)
+    reset_x, reset_z = retract_x[-1] + (approach_x[0] - retract_x[-1]) * _blend(m), np.full(m, h[-1] + retract_mm)
     # join the phases without repeating the shared end points
-    xs = np.concatenate([approach_x, grind_x[1:], retract_x[1:], reset_x[1:]])
-    zs = np.concatenate([approach_z, grind_z[1:], retract_z[1:], reset_z[1:]])
+    xs = np.concatenate([approach_x, run_on_x[1:], grind_x[1:], run_off_x[1:], retract_x[1:], reset_x[1:]])
+    zs = np.concatenate([approach_z, np.full(r, h[0]), grind_z[1:], np.full(r, h[-1]), retract_z[1:],
+                         reset_z[1:]])
     times = np.arange(xs.size) * sample_period_s
-    grind_start = (n - 1) * sample_period_s
+    grind_start = (n - 1 + r) * sample_period_s
     grind_end = grind_start + (grind_t.size - 1) * sample_period_s
     return ToolPath(times, frame.positions_mm(xs, zs), frame.quaternion_xyzw, grind_start, grind_end,
-                    grind_end + (n - 1) * sample_period_s)
+                    grind_end + (r + n - 1) * sample_period_s)

@@ -21,6 +21,11 @@ Topics:
                                  in lock-step starts a pass only once its controller has it
     /diagnostics
 
+Touch-down: while a force trajectory waits for its start, the table moves from wherever it
+was held to ``touch_standoff_mm`` short of ``contact_mm`` at ``touch_speed_mm_s``, arriving
+``touch_settle_s`` before the start (:mod:`hex_control.control.touch_down`), so the loop
+closes on the work at the pass's first samples instead of travelling the gap under them.
+
 Watchdog: when the setpoint or the measurement is older than its timeout, the command
 ramps to ``output_min_mm`` (retracted: no force) over ``ramp_down_s`` and a WARN is
 reported; the loop restarts bumplessly when both are fresh again. Non-finite inputs are
@@ -41,6 +46,7 @@ from std_msgs.msg import Float64
 
 from hex_control.control.force_law import EnergyForceLaw, PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
+from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED
 from hex_control.nodes.runtime import run_node
@@ -58,7 +64,8 @@ class ForceControllerNode(Node):
                               ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0),
                               ("roll_off_quality", 0.5), ("stiffness_n_per_mm", ForceTableParameters().stiffness_n_mm), ("contact_mm", 0.0),
                               ("energy_q1", 1.0), ("energy_q2", 1.0), ("energy_r", 1e3),
-                              ("energy_correction_limit_mm", 0.5)):
+                              ("energy_correction_limit_mm", 0.5), ("touch_standoff_mm", 0.1),
+                              ("touch_speed_mm_s", 10.0), ("touch_settle_s", 0.1), ("touch_felt_n", 2.0)):
             self.declare_parameter(name, default, read_only)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.period_s = 1.0 / p("rate_hz")
@@ -76,6 +83,8 @@ class ForceControllerNode(Node):
         else:
             raise ValueError(f"law must be pi or energy_optimal, got {p('law')!r}")
         self.law.reset(self.limits[0])
+        self.touch_down = TouchDown(p("contact_mm"), p("touch_standoff_mm"), p("touch_speed_mm_s"),
+                                    p("touch_settle_s"), p("touch_felt_n"))
         self.diagnostics = Diagnostics(self)
         self.command_mm = self.limits[0]
         self.trajectory = None
@@ -141,25 +150,38 @@ class ForceControllerNode(Node):
             self._reject("prediction")
 
     # -- loop ------------------------------------------------------------------------------
+    def _elapsed_s(self, now) -> float | None:
+        """Time into the held force trajectory (negative before its start), None without one."""
+        if self.direct_setpoint is not None or self.trajectory is None:
+            return None
+        return (now - self.trajectory[0]).nanoseconds * 1e-9
+
     def _desired(self, now) -> float | None:
         if self.direct_setpoint is not None:
             return self.direct_setpoint
-        if self.trajectory is not None:
-            start, t, f = self.trajectory
-            elapsed = (now - start).nanoseconds * 1e-9
-            if elapsed > t[-1]:
-                return None  # the trajectory is over
-            return float(np.interp(elapsed, t, f))
-        return None
+        elapsed = self._elapsed_s(now)
+        if elapsed is None or elapsed < 0 or elapsed > self.trajectory[1][-1]:
+            return None  # no trajectory, not started, or over
+        _, t, f = self.trajectory
+        return float(np.interp(elapsed, t, f))
 
     def _stale(self, stamp, timeout: float, now) -> bool:
         return stamp is None or (now - stamp).nanoseconds * 1e-9 > timeout
 
     def _tick(self, now: Time) -> None:
+        elapsed = self._elapsed_s(now)
+        fresh_measurement = not self._stale(self.measured_time, self.get_parameter("measurement_timeout_s").value, now)
+        if elapsed is not None and elapsed < 0 and fresh_measurement:
+            # a pass is coming: touch down in time; the loop starts bumplessly from there
+            self.tripped = True
+            command = self.touch_down.command_mm(self.command_mm, -elapsed, self.measured_n, self.period_s)
+            self.command_mm = min(max(command, self.limits[0]), self.limits[1])
+            self.law.hold(self.command_mm)
+            self.publisher.publish(Float64(data=self.command_mm))
+            return
         desired = self._desired(now)
         fresh_setpoint = desired is not None and (self.trajectory is not None or not self._stale(
             self.setpoint_time, self.get_parameter("setpoint_timeout_s").value, now))
-        fresh_measurement = not self._stale(self.measured_time, self.get_parameter("measurement_timeout_s").value, now)
         if fresh_setpoint and fresh_measurement:
             if self.tripped:
                 self.tripped = False
