@@ -5,6 +5,7 @@ work, leaving 2-5 mm of the bead's start unground and winding up its integrator.
 
 import math
 
+import numpy as np
 import pytest
 
 from hex_control.control.force_law import PIForceLaw
@@ -69,3 +70,49 @@ def test_a_loop_started_at_the_standoff_finds_the_force_several_times_sooner():
     # from the standoff 0.045 s, mostly the table's own 9 Hz pole
     assert from_retracted > 0.2
     assert from_standoff < 0.06 and from_standoff < from_retracted / 4
+
+
+def _grind_under_the_force_loop(start_mm: float):
+    """A finishing pass (98 % of the bead's mean height, 20 mm/s) planned on a 60 mm bead,
+    executed on the plant's cell by the shipped PI through the force table from a table
+    held at ``start_mm``: the part's figures after it."""
+    from hex_control.control.force_law import roll_off_filter
+    from hex_control.grinding.contour import weld_bead
+    from hex_control.grinding.dynamic import DiskModel
+    from hex_control.grinding.part_quality import part_quality
+    from hex_control.grinding.pass_plan import plan_forces
+    from hex_control.grinding.variation import ProcessVariation
+    from hex_control.plant.grinding_cell import GrindingCell
+
+    bead, model = weld_bead(60.0, 0.5, seed=3), DiskModel()
+    plan = plan_forces(bead, model, 0.98 * bead.area_above(bead.parent_mm) / bead.length_mm, 20.0)
+    cell = GrindingCell(bead, model, ProcessVariation(0.0, 0.0))
+    table = ForceTable(ForceTableParameters(), step_s=0.001)
+    table.reset(start_mm)
+    table.surface_mm = math.inf
+    law = PIForceLaw(TustinPI(0.01238, 0.3095, PERIOD_S, RETRACTED_MM, 2.0),
+                     roll_off_filter("notch", 35.0, PERIOD_S, 0.5))
+    law.reset(start_mm)
+    t = np.arange(0.0, plan.time_s[-1], PERIOD_S)
+    x, h, f = (np.interp(t, plan.time_s, a) for a in (plan.centre_x_mm, plan.height_mm, plan.force_n))
+    cell.start_pass("job", 0)
+    for k in range(40):  # come down onto the start from 5 mm above
+        table.surface_mm = cell.advance(PERIOD_S, (x[0], h[0] + 5.0 * (1 - k / 39)), table.position_mm)
+    for k in range(t.size):
+        command = law.command(f[k], table.measured_n)
+        for _ in range(5):
+            table.step(command)
+        table.surface_mm = cell.advance(PERIOD_S, (x[k], h[k]), table.position_mm)
+    measured = cell.finish_pass()
+    return measured, part_quality(measured.contour_after, 15.0), plan
+
+
+def test_touched_down_the_bead_start_is_ground_as_planned():
+    """The cause, reproduced on the plant's own cell and table: from the retracted stop the
+    first 3.4 mm of the bead stand 0.18 mm high after a finishing pass; touched down, under
+    0.03 mm, and the pass removes the planned depth within 1 %."""
+    _, retracted, _ = _grind_under_the_force_loop(RETRACTED_MM)
+    measured, touched, plan = _grind_under_the_force_loop(TouchDown().target_mm)
+    assert retracted.highest_mm > 0.15 and retracted.highest_x_mm < 6.0
+    assert touched.highest_mm < 0.03 and touched.gouge_mm < 0.02
+    assert measured.measured_cut_depth_mm == pytest.approx(plan.planned_depth_mm, rel=0.01)

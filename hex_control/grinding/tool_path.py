@@ -104,7 +104,7 @@ def pass_tool_path(frame: BeadFrame, grind_time_s, centre_x_mm, height_mm,
     grind_x, grind_z = np.interp(grind_t, t - t[0], x), np.interp(grind_t, t - t[0], h)
     r = int(round(run_on_s / sample_period_s))
     run = np.arange(r + 1) * sample_period_s * (x[-1] - x[0]) / (t[-1] - t[0])  # at the mean feed
-    run_on_x, run_off_x = x[0] - run[::-1], x[-1] + run
+    run_on_x, run_off_x = grind_x[0] - run[::-1], grind_x[-1] + run
     approach_x, approach_z = np.full(n, run_on_x[0]), h[0] + retract_mm * (1 - _blend(n))
     retract_x, retract_z = np.full(n, run_off_x[-1]), h[-1] + retract_mm * _blend(n)
     m = samples(reset_s)
