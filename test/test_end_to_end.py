@@ -22,7 +22,7 @@ from hex_control.nodes.grind_job import JobSession
 from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
-RESET_TIME_S = 4.2  # the ZVD-shaped t_R of the shipped machine (test_reset_time)
+RESET_TIME_S = 4.7  # the ZVD-shaped t_R of the shipped machine, run-on and run-off included (test_grinding_cell)
 
 
 def mean_height(contour) -> float:

@@ -138,6 +138,34 @@ def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, comm
     assert result.status == PassResult.REJECTED and reason in result.reason
 
 
+def test_a_waiting_command_is_never_dropped_silently(planner):
+    """Issue 21 item 5: a newer command used to replace one waiting for its contour, which
+    then got no status and no result. Each command now ends exactly once: the older of two
+    waiting ones is refused as superseded, and a late, earlier pass of the same job too."""
+    publishers, outputs = planner
+    for received, index in enumerate((1, 2, 0), start=1):  # 1 waits; 2 supersedes it; 0 comes late
+        publishers["command"].publish(_command(pass_index=index))
+        wait_until(lambda: sum(s.message == "received" for s in outputs["status"]) == received, 20.0,
+                   what=f"pass {index} received")
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 2, 12.5))
+
+    def ended():
+        by_pass = {}
+        for status in outputs["status"]:
+            if status.message != "received":
+                by_pass.setdefault(dict((v.key, v.value) for v in status.values)["pass_index"], []).append(status)
+        return by_pass
+
+    wait_until(lambda: len(ended()) == 3, 30.0, what="an end for each of the three commands")
+    ended = ended()
+    assert sorted(ended) == ["0", "1", "2"] and all(len(v) == 1 for v in ended.values())
+    for index in ("0", "1"):
+        assert ended[index][0].level == DiagnosticStatus.ERROR and "superseded by pass 2" in ended[index][0].message
+    assert ended["2"][0].level == DiagnosticStatus.OK and outputs["trajectory"][-1].pass_index == 2
+    rejected = sorted(r.pass_index for r in outputs["result"] if r.status == PassResult.REJECTED)
+    assert rejected == [0, 1]
+
+
 def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, spawn, tmp_path):
     """TestPose of the kinematics node on every pass's path: a bead placed 2 m above the
     NIST hexapod's workspace is refused with the offending pose."""

@@ -35,7 +35,9 @@ same job, or a contour without a job id). If none has arrived within ``contour_w
 the command is refused. Planning runs in a worker thread; nothing is published for a
 command until its whole plan exists, and nothing at all for a refused one. A command
 already answered or in hand (a latched re-delivery, or the sequence planner sending it
-again) is ignored; each new one is logged when it arrives and when it is planned.
+again) is ignored; each new one is logged when it arrives and when it is planned. One
+command waits for its contour at a time: of two, the one for an earlier pass of the same job
+is refused as superseded, so every command ends exactly once (planned or refused).
 """
 
 from __future__ import annotations
@@ -117,6 +119,12 @@ class PassPlannerNode(Node):
         self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: cut {msg.cut_depth_mm:.4f} mm "
                                f"at {msg.feed_speed_mm_s:.2f} mm/s, K1 {msg.specific_energy_j_mm3:g} J/mm^3")
         self._status(msg, DiagnosticStatus.OK, "received", {})  # the sequence planner's acknowledgement
+        if self.pending is not None:  # one command waits for its contour at a time: the older one ends here
+            older, newer = (self.pending, msg) if _supersedes(msg, self.pending) else (msg, self.pending)
+            self._refuse(older, f"superseded by pass {newer.pass_index} of job {newer.job_id!r} before its "
+                                "contour came", "superseded")
+            if older is msg:
+                return
         self.pending, self.pending_since = msg, time.monotonic()  # a transport wait: wall time
         self._try_plan()
 
@@ -275,6 +283,12 @@ class PassPlannerNode(Node):
 def _checked_positions(path) -> np.ndarray:
     """The path positions TestPose checks (mm): one sample in ten, and the last."""
     return np.vstack([path.positions_mm[::10], path.positions_mm[-1:]])
+
+
+def _supersedes(new: PassCommand, old: PassCommand) -> bool:
+    """A command for another job, or a later pass of the same one, replaces a waiting one;
+    an earlier pass of the same job (a late re-delivery from a restarted writer) does not."""
+    return new.job_id != old.job_id or new.pass_index > old.pass_index
 
 
 def _key(command: PassCommand) -> tuple[str, int]:
