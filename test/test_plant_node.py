@@ -76,9 +76,9 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     commands = ros.node("strut_source").create_publisher(JointState, "/plant/strut_command", 10)
     wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")
     names = [f"strut_{i}" for i in range(6)]
-    commands.publish(JointState(name=names, position=[0.6] * 6))
+    commands.publish(JointState(name=names, position=[2.6] * 6))  # inside the NIST stroke, 2.05 .. 3.35 m
     wait_until(lambda: states, 10.0, what="strut states")
-    commands.publish(JointState(name=names, position=[0.61] * 6))
+    commands.publish(JointState(name=names, position=[2.61] * 6))
     start_wall, start_count = time.monotonic(), len(wrenches)
     time.sleep(2.0)
     wall_span, end_count = time.monotonic() - start_wall, len(wrenches)
@@ -87,7 +87,7 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     assert sim_span / wall_span == pytest.approx(1.0, rel=0.1)
     # every 5 ms control period is published: none skipped, none repeated
     assert sim_span == pytest.approx((end_count - 1 - start_count) * 0.005, abs=1e-6)
-    assert states[-1].position == pytest.approx([0.61] * 6, abs=1e-6)
+    assert states[-1].position == pytest.approx([2.61] * 6, abs=1e-6)
 
 
 def test_watchdog_retracts_on_sim_time_when_the_setpoint_ends(ros, spawn):
@@ -151,7 +151,7 @@ def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
     from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, time_msg
 
     names = [f"strut_{i}" for i in range(6)]
-    ramp = np.repeat(np.linspace(0.60, 0.62, 101)[:, None], 6, axis=1)  # 0.5 s at 5 ms
+    ramp = np.repeat(np.linspace(2.60, 2.62, 101)[:, None], 6, axis=1)  # 0.5 s at 5 ms, in stroke
     node = ros.node("trajectory_source")
     publisher = node.create_publisher(JointTrajectory, "/plant/strut_trajectory", LATCHED)
     publisher.publish(joint_trajectory_message(time_msg(0.2), names, 0.005, ramp))
@@ -164,10 +164,53 @@ def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
     wait_until(lambda: states and _stamp_s(states[-1]) >= 1.0 - 1e-9, 60.0, what="the end of the run")
     first = _stamp_s(states[0])
     assert first >= 0.2 - 1e-9  # nothing placed the struts before the trajectory began
-    assert states[0].position == pytest.approx([0.60] * 6, abs=1e-9)
-    assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)  # followed through the servos
+    assert states[0].position == pytest.approx([2.60] * 6, abs=1e-9)
+    assert states[-1].position == pytest.approx([2.62] * 6, abs=1e-5)  # followed through the servos
     publisher.publish(joint_trajectory_message(time_msg(0.5), names, 0.005, ramp[::-1]))
 
     wait_until(lambda: _plant_counter(diagnostics, "late_strut_trajectory") == "1", 5.0,
                what="the late trajectory to be counted")
-    assert states[-1].position == pytest.approx([0.62] * 6, abs=1e-5)
+    assert states[-1].position == pytest.approx([2.62] * 6, abs=1e-5)
+
+
+def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
+    """Issue 21 item 3: 1000 mm on the force axis gave 7.9e4 N and a 50 m strut command drove
+    every strut to 50 m. Now the table stops at its travel, the force trips the overload
+    (150 N) and retracts the table until the command asks for no force, and a strut command
+    outside the stroke is refused: the struts stay where they were."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from std_msgs.msg import Float64
+
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0"])
+    forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
+    states = ros.collect(JointState, "/plant/strut_states", KEEP)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    node = ros.node("rogue")
+    force_axis = node.create_publisher(Float64, "/plant/force_axis_command", 10)
+    struts = node.create_publisher(JointState, "/plant/strut_command", 10)
+    wait_until(lambda: force_axis.get_subscription_count() >= 1 and struts.get_subscription_count() >= 1, 15.0,
+               what="the plant")
+    names = [f"strut_{i}" for i in range(6)]
+    struts.publish(JointState(name=names, position=[2.6] * 6))
+    wait_until(lambda: states and states[-1].position[0] == pytest.approx(2.6, abs=1e-6), 10.0, what="the struts")
+
+    def pushing():
+        force_axis.publish(Float64(data=1000.0))
+        return _plant_counter(diagnostics, "overload_trips") == "1"
+    wait_until(pushing, 15.0, interval_s=0.05, what="the overload trip")
+    start = len(forces)
+    wait_until(lambda: len(forces) > start + 100, 10.0, what="0.5 s more of the plant")
+    assert max(f.wrench.force.z for f in forces) < 200.0  # 2 mm of travel: 166 N at most, tripped at 150
+    assert forces[-1].wrench.force.z == 0.0  # held retracted while the command still pushes
+    assert int(_plant_counter(diagnostics, "clamped_force_commands")) >= 1
+
+    def backing_off():  # no force asked: the trip resets
+        force_axis.publish(Float64(data=-1.0))
+        return _plant_counter(diagnostics, "overload_resets") == "1"
+    wait_until(backing_off, 10.0, interval_s=0.05, what="the trip's reset")
+    force_axis.publish(Float64(data=0.3))
+    wait_until(lambda: forces[-1].wrench.force.z > 15.0, 10.0, what="force again after the reset")
+
+    struts.publish(JointState(name=names, position=[50.0] * 6))
+    wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0, what="the refusal")
+    assert states[-1].position == pytest.approx([2.6] * 6, abs=1e-6)

@@ -23,6 +23,11 @@ Modes (``mode``):
   keep pushing; the stop is far enough back to lift the disk off work that the tool path
   still expects to cut), and in lock-step the plant then runs on in real time until
   commands return.
+- Limits below every controller (:mod:`hex_control.plant.limits`): strut commands and
+  trajectories outside the machine file's strokes are refused and counted; force commands
+  are clamped to the table's travel [``retract_mm``, ``table_travel_max_mm``]; a true force
+  above ``overload_n`` retracts the table until a command at or behind the contact resets
+  the trip (counted, WARN in ``/diagnostics`` until then).
 With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length). Timing
 counts from the first answered measurement; ``report_file`` also gets it as JSON every second.
 Command latency (measurement out to command in, wall time) and missed cycles are reported
@@ -107,6 +112,7 @@ from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.pacing import RealTimePacer
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
+from hex_control.plant.limits import ForceAxisLimits, check_strokes
 from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
@@ -139,6 +145,7 @@ class PlantNode(Node):
                               ("telemetry_period_s", 0.1), ("debug_streams", True),
                               ("controller_status_topic", "/force_controller/status"),
                               ("table_start_mm", -1.0), ("strut_names", [""]), ("pru3_drive", "lspd"),
+                              ("table_travel_max_mm", 2.0), ("overload_n", 150.0),
                               *CELL_PARAMETERS,
                               *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
                               *((n, getattr(machine_defaults, n)) for n in MACHINE_PARAMETERS)):
@@ -170,6 +177,12 @@ class PlantNode(Node):
             self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                                        command_timeout_s=p("command_timeout_s"))
         self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator)
+        self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)
+        if is_pru3:
+            self.check_struts = machine.check_command
+        else:
+            low, high = machine_geometry.strut_length_min_mm, machine_geometry.strut_length_max_mm
+            self.check_struts = lambda lengths: check_strokes(lengths, low, high)
         self.command_mm = p("table_start_mm")
         self.last_command_s = 0.0  # sim time of the latest force command
         self.free_running = False  # lock-step whose controller stopped answering
@@ -259,11 +272,8 @@ class PlantNode(Node):
     def _on_strut_trajectory(self, msg: JointTrajectory) -> None:
         try:
             trajectory = strut_trajectory_from_message(msg, self.strut_names)
-            if np.abs(trajectory.lengths_m).max() >= 100.0:
-                raise ValueError("strut lengths must be under 100 m")
-            if isinstance(self.sim.machine, Pru3Machine):
-                for lengths in trajectory.lengths_m:
-                    self.sim.machine.check_command(lengths)
+            for lengths in trajectory.lengths_m:
+                self.check_struts(lengths)
         except ValueError as error:
             self.diagnostics.count("rejected_strut_trajectory")
             self.get_logger().warning(f"strut trajectory rejected: {error}", throttle_duration_sec=1.0)
@@ -302,10 +312,9 @@ class PlantNode(Node):
         try:
             positions = dict(zip(msg.name, msg.position)) if msg.name else dict(zip(self.strut_names, msg.position))
             lengths = [positions[name] for name in self.strut_names]
-            if not all(math.isfinite(v) and abs(v) < 100.0 for v in lengths):
-                raise ValueError(f"strut lengths must be finite and under 100 m, got {lengths}")
-            if isinstance(self.sim.machine, Pru3Machine):
-                self.sim.machine.check_command(lengths)
+            if not all(math.isfinite(v) for v in lengths):
+                raise ValueError(f"strut lengths must be finite, got {lengths}")
+            self.check_struts(lengths)
         except (KeyError, ValueError) as error:
             self.diagnostics.count("rejected_strut_command")
             self.get_logger().warning(f"strut command rejected: {error}", throttle_duration_sec=1.0)
@@ -366,8 +375,9 @@ class PlantNode(Node):
         if command_age_s > self.get_parameter("command_timeout_s").value:
             self.command_mm = self.get_parameter("retract_mm").value  # amplifier watchdog
         self._apply_strut_commands()
+        command_mm = self._limited_command()
         try:
-            state = self.sim.advance(self.period_s, self.command_mm)
+            state = self.sim.advance(self.period_s, command_mm)
         except ValueError as error:  # the tool left the machine's forward kinematics
             self.diagnostics.count("simulation_errors")
             self.get_logger().error(f"plant step failed: {error}", throttle_duration_sec=1.0)
@@ -375,6 +385,23 @@ class PlantNode(Node):
         if self.monitor is not None:
             self._monitor_pass(state, command_age_s)
         self._publish_state()
+
+    def _limited_command(self) -> float:
+        """The force command within the table's travel, or the retract stop while tripped."""
+        limits = self.axis_limits
+        clamped, trips, tripped = limits.clamped, limits.trips, limits.tripped
+        command_mm = limits.command_mm(self.command_mm, self.sim.table.force_n)
+        if tripped and not limits.tripped:
+            self.diagnostics.count("overload_resets")
+            self.diagnostics.ok("overload reset: the command asks for no force")
+        if limits.clamped > clamped:
+            self.diagnostics.count("clamped_force_commands")
+        if limits.trips > trips:
+            self.diagnostics.count("overload_trips")
+            self.diagnostics.warn(f"overload: {self.sim.table.force_n:.0f} N > {limits.overload_n:g} N, "
+                                  "table retracted until the command asks for no force")
+            self.get_logger().error(f"overload trip at {self.sim.table.force_n:.0f} N: table retracted")
+        return command_mm
 
     def _monitor_pass(self, state, command_age_s: float) -> None:
         report = self.monitor.on_period(state.time_s, state.deflection_mm, state.strut_speeds_m_s, command_age_s)
