@@ -105,6 +105,29 @@ def test_plan_then_execute_removes_the_volume_and_k1_errors_grow_to_the_thesis_o
     assert -0.25 < errors[1.2] < -0.10
 
 
+BEADS = {"ripple": weld_bead(60.0, 1.0, 12.0, ripple_mm=0.15, seed=4),
+         "steep ends": weld_bead(60.0, 1.0, 3.0, ripple_mm=0.05, seed=5),
+         "rounded ends": weld_bead(60.0, 1.0, 25.0, ripple_mm=0.05, seed=6)}
+RIPPLE_AT_75 = pytest.mark.xfail(strict=True, reason="issue 20, open: at 75 mm/s on 0.15 mm ripple the disk leaves "
+                                 "the troughs and the executed pass removes 7 % less than its plan")
+
+
+@pytest.mark.parametrize("bead, feed", [(b, v) for b in BEADS for v in (5.0, 39.5)]
+                         + [pytest.param("ripple", 75.0, marks=RIPPLE_AT_75), ("steep ends", 75.0),
+                            ("rounded ends", 75.0)])
+def test_an_executed_plan_removes_its_planned_volume_within_3_percent(bead, feed):
+    """Issue 20 acceptance, for 40 % of each bead at the slowest, a middle and the fastest
+    feed: executing the plan's force trajectory under force control removes what the plan's
+    simulation removed. With the out-of-contact approach at an ad-hoc 5 mm/s it removed 20-40 %
+    less at 40-75 mm/s (the disk lost in the troughs); at the table's own time constant
+    (eq. 7.3) it agrees, as the plant's cell does. Nothing goes below the parent."""
+    contour = BEADS[bead]
+    plan = plan_pass(contour, MODEL, 0.4 * contour.area_above(contour.parent_mm) / contour.length_mm, feed)
+    executed = execute_plan(contour, MODEL, plan)
+    assert executed.removed_mm3 == pytest.approx(plan.simulation.removed_mm3, rel=0.03)
+    assert np.min(executed.final.z_mm - executed.final.parent_mm) >= 0.0
+
+
 def test_plan_on_a_curved_parent_surface_keeps_the_final_contour_parallel_to_it():
     bead = weld_bead(length_mm=80.0, height_mm=3.0, ripple_mm=0.15, parent_curvature_per_mm=2e-3, seed=5)
     plan = plan_pass(bead, MODEL, 0.5, 15.0)

@@ -26,9 +26,14 @@ truncates removes material the next stage needs, which is the chatter of 6.5
 (``truncate_in_stages`` reproduces it for the tests).
 
 Out of contact the massless disk would jump to its equilibrium; here it relaxes towards it
-with the time constant ``free_swing_s`` (no shorter than the step, which keeps RK4 stable),
-or approaches at about ``approach_mm_s`` under force control. That rate also bounds
-dtheta/dt while the patch is vanishingly small.
+with the time constant ``free_swing_s`` (no shorter than the step, which keeps RK4 stable).
+Under force control (a force schedule) nothing holds the spring's rest angle: the force
+loop drives the table to restore the wanted force, so the rest angle runs towards the work
+by the wind-up F R / K_S that force needs, through the table's position loop, and the disk
+follows with that loop's time constant ``approach_time_constant_s`` (eq. 7.3's poles,
+1/(2 pi 9 Hz) + 1/(2 pi 40 Hz) = 21.7 ms); that rate also bounds dtheta/dt while the patch
+is vanishingly small. (An ad-hoc 5 mm/s stood here: executed passes then removed 20-40 %
+less than planned at 40-75 mm/s, where the plant's cell removes what was planned.)
 
 Units: mm, s, rad, N; power W; removal rate mm^3/s.
 """
@@ -54,15 +59,15 @@ class DiskModel:
     spring_n_mm_rad: float = 6.0e5
     relaxed_angle_rad: float = math.radians(20.0)
     free_swing_s: float = 0.01
-    approach_mm_s: float = 5.0
+    approach_time_constant_s: float = 1 / (2 * math.pi * 9.0) + 1 / (2 * math.pi * 40.0)  # the table, eq. 7.3
 
     def __post_init__(self):
-        for name in ("spring_n_mm_rad", "relaxed_angle_rad", "free_swing_s", "approach_mm_s"):
+        for name in ("spring_n_mm_rad", "relaxed_angle_rad", "free_swing_s", "approach_time_constant_s"):
             if not isinstance(getattr(self, name), (int, float)):
                 raise ValueError(f"DiskModel.{name} must be a number, got {getattr(self, name)!r}")
         if not (self.spring_n_mm_rad > 0 and 0 < self.relaxed_angle_rad < math.pi / 2
-                and self.free_swing_s > 0 and self.approach_mm_s > 0):
-            raise ValueError("need K_S > 0, 0 < theta_0 < 90 deg, free_swing_s > 0, approach_mm_s > 0")
+                and self.free_swing_s > 0 and self.approach_time_constant_s > 0):
+            raise ValueError("need K_S > 0, 0 < theta_0 < 90 deg, free_swing_s > 0, approach_time_constant_s > 0")
 
     @property
     def radius_mm(self) -> float:
@@ -159,8 +164,9 @@ class RelaxedAngleControl(_TipTracking):
 class ForceSchedule:
     """Execution under force control: the centre height and the normal force follow
     planned trajectories of the feed position x_c (mm); the spring's wind-up is whatever
-    gives that force. Without contact the disk approaches at about ``approach_mm_s`` while
-    a force is wanted, and rests at the relaxed angle while none is."""
+    gives that force. Without contact, while a force is wanted, the disk runs towards the
+    work by that force's wind-up with the table's time constant (module docstring); while
+    none is, it rests at the relaxed angle."""
 
     def __init__(self, model: DiskModel, centre_x_mm, height_mm, force_n, initial_angle_rad: float):
         self.model = model
@@ -180,7 +186,8 @@ class ForceSchedule:
             if centre_x_mm >= self.x[0] else 0.0
         relaxed = angle_rad + force * self.model.radius_mm / self.model.spring_n_mm_rad
         if force > 0:  # the force loop pushes the free disk towards the work
-            offset = self.model.approach_mm_s / self.model.radius_mm * self.model.free_swing_s
+            model = self.model
+            offset = force * model.radius_mm / model.spring_n_mm_rad * model.free_swing_s / model.approach_time_constant_s
         else:  # no force wanted: the spring is relaxed
             offset = self.model.relaxed_angle_rad - angle_rad
         return DriveState(height, float(self.h_slope[i]) * feed_mm_s, 0.0, force, relaxed, 0.0, offset)
