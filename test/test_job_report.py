@@ -120,3 +120,21 @@ def test_the_plan_is_held_against_what_the_plant_cut_per_pass():
     error = job_statistics([{**_summary("done", 0.01, 0.0), "passes": passes}], 0.025)["cut_depth_error_mm"]
     assert error["passes"] == 2 and error["mean_absolute"] == pytest.approx(0.035)
     assert error["mean_absolute_relative"] == pytest.approx(0.1) and error["mean_relative"] == pytest.approx(0.0)
+
+
+def test_report_keeps_every_scan_as_a_profile_the_pass_planner_reads(tmp_path):
+    """The scans go to profiles/after_pass_N.csv, which `hexctl pass --contour` reads back."""
+    import numpy as np
+
+    from hex_control.grinding.contour import Contour, weld_bead
+
+    bead = weld_bead(60.0, 1.0, seed=2)
+    ground = Contour(bead.x_mm, np.minimum(bead.z_mm, 0.4), bead.parent_mm)
+    result = {"specific_energy_j_mm3": 9.0, "stamp_s": 10.0, "burn": False, "stall": False}
+    record = JobRecord(results={0: result}, contours={0: (bead, 12.5), 1: (ground, 12.5)},
+                       outcome={"reason": "done", "total_charge": 0.0})
+    write_report(record, tmp_path)
+    assert sorted(p.name for p in (tmp_path / "profiles").iterdir()) == ["after_pass_0.csv", "after_pass_1.csv"]
+    back = Contour.from_csv(tmp_path / "profiles" / "after_pass_1.csv")
+    assert np.allclose(back.z_mm, ground.z_mm) and np.allclose(back.parent_mm, ground.parent_mm)
+    assert (tmp_path / "contours.png").stat().st_size > 10_000

@@ -87,8 +87,9 @@ def write_report(record: JobRecord, out: Path, policy=None) -> dict:
     summary = record.summary()
     (out / "job.json").write_text(json.dumps(summary, indent=2, default=float))
     _plot_contours(record, out / "contours.png")
-    for index, (contour, _) in record.contours.items():  # the scans, for `hexctl pass --contour`
+    if record.contours:  # the scans, for `hexctl pass --contour`
         (out / "profiles").mkdir(exist_ok=True)
+    for index, (contour, _) in record.contours.items():
         contour.to_csv(out / "profiles" / f"after_pass_{index}.csv")
     _plot_force(record, out / "force_tracking.png")
     _plot_struts(record, out / "strut_lengths.png")
