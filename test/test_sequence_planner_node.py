@@ -160,6 +160,11 @@ def test_a_bead_too_high_for_the_deadline_ends_by_the_policy(ros, planner):
 @pytest.mark.parametrize("goal, reason", [
     (GrindBead.Goal(bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0, deadline_s=0.0), "deadline_s"),
     (GrindBead.Goal(bead_height_mm=1.0, bead_width_mm=-2.0, bead_length_mm=300.0, deadline_s=50.0), "bead_width_mm"),
+    # bounded work (issue 21): this deadline's policy took 152 s and 1 GB on the executor thread
+    (GrindBead.Goal(bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0, deadline_s=40000.0),
+     "deadline_s 40000 s is beyond this planner's max_deadline_s (1800 s)"),
+    (GrindBead.Goal(bead_height_mm=500.0, bead_width_mm=12.5, bead_length_mm=300.0, deadline_s=50.0),
+     "material_mm 500 mm is beyond this planner's max_material_mm (20 mm)"),
 ])
 def test_bad_goals_end_rejected_with_the_reason(ros, planner, goal, reason):
     planner()

@@ -89,6 +89,11 @@ class SequencePlannerNode(Node):
         self.declare_parameter("prediction_wait_s", 2.0, ParameterDescriptor(
             description="wall time a decision waits for the K1 prediction from the pass just "
                         "measured, when a predictor publishes (s); 0 = decide at once"))
+        self.declare_parameter("max_deadline_s", 1800.0, ParameterDescriptor(
+            description="longest goal deadline accepted (s): the policy solve grows with it (40000 s took 152 s "
+                        "and 1 GB on the executor thread); a longer one is rejected with the reason", read_only=True))
+        self.declare_parameter("max_material_mm", 20.0, ParameterDescriptor(
+            description="highest mean bead height accepted (mm), for the same reason", read_only=True))
         self.base_config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
         _, self.charges, self.grid, self.cut_model = load_planner_config(
             self.get_parameter("planner_config").value)
@@ -160,6 +165,7 @@ class SequencePlannerNode(Node):
                          (("charges", goal_handle.request.charges_yaml), ("process", goal_handle.request.process_yaml))}
             goal = dataclasses.replace(goal_from_message(goal_handle.request),
                                        config_overrides={k: v for k, v in overrides.items() if v})
+            self._check_bounds(goal)
             process, charges = self._configured(goal.config_overrides)
         except (ValueError, TypeError, yaml.YAMLError) as exc:
             self._reject(goal_handle, str(exc))
@@ -172,6 +178,14 @@ class SequencePlannerNode(Node):
         self.get_logger().info(f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s, "
                                f"policy solved in {self.last_solve_ms:.0f} ms")
         self._advance()
+
+    def _check_bounds(self, goal: JobGoal) -> None:
+        """Bounded work: a goal whose policy would take unbounded time and memory is refused."""
+        for value, name, unit in ((goal.deadline_s, "max_deadline_s", "s"), (goal.material_mm, "max_material_mm", "mm")):
+            limit = self.get_parameter(name).value
+            if value > limit:
+                raise ValueError(f"{name.removeprefix('max_')} {value:g} {unit} is beyond this planner's {name} "
+                                 f"({limit:g} {unit})")
 
     def _reject(self, goal_handle, reason: str) -> None:
         self.diagnostics.count("rejected_goals")
