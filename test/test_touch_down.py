@@ -8,13 +8,27 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.control.force_law import PIForceLaw
+import yaml
+
+from hex_control.config import config_file
+from hex_control.control.force_law import PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
 from hex_control.control.touch_down import TouchDown
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
 
-PERIOD_S = 0.005
-RETRACTED_MM = -2.0
+SHIPPED = yaml.safe_load(config_file("force_controller.yaml").read_text())["force_controller"]["ros__parameters"]
+PERIOD_S = 1.0 / SHIPPED["rate_hz"]  # 5 ms
+RETRACTED_MM = SHIPPED["output_min_mm"]  # -2 mm
+
+
+def _shipped_law(roll_off: bool, start_mm: float) -> PIForceLaw:
+    """The PI of config/force_controller.yaml (with its notch, if ``roll_off``), held at ``start_mm``."""
+    law = PIForceLaw(TustinPI(SHIPPED["kp_mm_per_n"], SHIPPED["ki_mm_per_n_s"], PERIOD_S, RETRACTED_MM,
+                              SHIPPED["output_max_mm"]),
+                     roll_off_filter(SHIPPED["roll_off"], SHIPPED["roll_off_hz"], PERIOD_S, SHIPPED["roll_off_quality"])
+                     if roll_off else None)
+    law.reset(start_mm)
+    return law
 
 
 def test_the_move_starts_just_in_time_and_arrives_before_the_start():
@@ -50,11 +64,10 @@ def test_bad_figures_are_refused(bad):
 
 def _time_to_force(start_mm: float, desired_n: float = 60.0) -> float:
     """Sim time (s) until the table's true force first reaches 90 % of a force step, from
-    a table held at ``start_mm``, under the shipped PI (config/force_controller.yaml)."""
+    a table held at ``start_mm``, under the shipped PI (without its notch)."""
     table = ForceTable(ForceTableParameters(), step_s=0.001)
     table.reset(start_mm)
-    law = PIForceLaw(TustinPI(0.01238, 0.3095, PERIOD_S, RETRACTED_MM, 2.0))
-    law.reset(start_mm)
+    law = _shipped_law(False, start_mm)
     for k in range(400):
         command = law.command(desired_n, table.measured_n)
         for _ in range(5):
@@ -76,7 +89,6 @@ def _grind_under_the_force_loop(start_mm: float):
     """A finishing pass (98 % of the bead's mean height, 20 mm/s) planned on a 60 mm bead,
     executed on the plant's cell by the shipped PI through the force table from a table
     held at ``start_mm``: the part's figures after it."""
-    from hex_control.control.force_law import roll_off_filter
     from hex_control.grinding.contour import weld_bead
     from hex_control.grinding.dynamic import DiskModel
     from hex_control.grinding.part_quality import part_quality
@@ -90,9 +102,7 @@ def _grind_under_the_force_loop(start_mm: float):
     table = ForceTable(ForceTableParameters(), step_s=0.001)
     table.reset(start_mm)
     table.surface_mm = math.inf
-    law = PIForceLaw(TustinPI(0.01238, 0.3095, PERIOD_S, RETRACTED_MM, 2.0),
-                     roll_off_filter("notch", 35.0, PERIOD_S, 0.5))
-    law.reset(start_mm)
+    law = _shipped_law(True, start_mm)
     t = np.arange(0.0, plan.time_s[-1], PERIOD_S)
     x, h, f = (np.interp(t, plan.time_s, a) for a in (plan.centre_x_mm, plan.height_mm, plan.force_n))
     cell.start_pass("job", 0)
