@@ -143,27 +143,24 @@ def test_a_waiting_command_is_never_dropped_silently(planner):
     then got no status and no result. Each command now ends exactly once: the older of two
     waiting ones is refused as superseded, and a late, earlier pass of the same job too."""
     publishers, outputs = planner
-    for received, index in enumerate((1, 2, 0), start=1):  # 1 waits; 2 supersedes it; 0 comes late
-        publishers["command"].publish(_command(pass_index=index))
-        wait_until(lambda: sum(s.message == "received" for s in outputs["status"]) == received, 20.0,
-                   what=f"pass {index} received")
+
+    def rejected():  # results are reliable with history; the latched status keeps only the latest
+        return sorted(r.pass_index for r in outputs["result"] if r.status == PassResult.REJECTED)
+
+    publishers["command"].publish(_command(pass_index=1))  # waits for its contour
+    wait_until(lambda: any(s.message == "received" for s in outputs["status"]), 20.0, what="pass 1 received")
+    publishers["command"].publish(_command(pass_index=2))  # supersedes it
+    wait_until(lambda: rejected() == [1], 20.0, what="pass 1 refused")
+    publishers["command"].publish(_command(pass_index=0))  # comes late, older than 2
+    wait_until(lambda: rejected() == [0, 1], 20.0, what="pass 0 refused")
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 2, 12.5))
-
-    def ended():
-        by_pass = {}
-        for status in outputs["status"]:
-            if status.message != "received":
-                by_pass.setdefault(dict((v.key, v.value) for v in status.values)["pass_index"], []).append(status)
-        return by_pass
-
-    wait_until(lambda: len(ended()) == 3, 30.0, what="an end for each of the three commands")
-    ended = ended()
-    assert sorted(ended) == ["0", "1", "2"] and all(len(v) == 1 for v in ended.values())
-    for index in ("0", "1"):
-        assert ended[index][0].level == DiagnosticStatus.ERROR and "superseded by pass 2" in ended[index][0].message
-    assert ended["2"][0].level == DiagnosticStatus.OK and outputs["trajectory"][-1].pass_index == 2
-    rejected = sorted(r.pass_index for r in outputs["result"] if r.status == PassResult.REJECTED)
-    assert rejected == [0, 1]
+    wait_until(lambda: outputs["trajectory"], 30.0, what="pass 2's force trajectory")
+    assert outputs["trajectory"][-1].pass_index == 2 and len(outputs["trajectory"]) == 1
+    wait_until(lambda: outcome(outputs["status"]) is not None and outcome(outputs["status"]).level == DiagnosticStatus.OK,
+               20.0, what="pass 2 planned")
+    for result in outputs["result"]:
+        assert result.status == PassResult.REJECTED and "superseded by pass 2" in result.reason
+    assert rejected() == [0, 1]  # each refused once, pass 2 planned once: every command ended exactly once
 
 
 def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, spawn, tmp_path):
