@@ -18,9 +18,10 @@ def test_demo_runs_and_reports(tmp_path, ros_env):
                             env=ros_env, capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stdout + result.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["samples_received"] >= 780  # KEEP_LAST may drop a few under load
+    # flow control keeps every queue below its depth, so nothing is lost at any machine load
+    assert summary["samples_received"] == 800
     assert "predictions over ROS 2" in result.stdout and "skill vs persistence" in result.stdout
-    assert summary["samples_lost_in_transport"] <= 20  # sample_count continues across re-identification
+    assert summary["samples_lost_in_transport"] == 0  # sample_count continues across re-identification
     assert summary["identified_model"]["a"] == pytest.approx(0.95, abs=0.08)
     # SD of a sample mean of an AR(1) over the >= 500 samples of the last identification:
     # sqrt(Var dL (1 + a) / ((1 - a) n)) = 0.8 N for the demo model; allow 4 SD

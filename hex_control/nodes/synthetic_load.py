@@ -1,11 +1,16 @@
 """Node ``synthetic_load``: publishes a simulated Gauss-Markov load (eqs 6.1-6.3).
 
 Stands in for a load measurement when there is no plant: y(t) = L_bar + dL(t) + v(t) at
-``rate_hz``, as ``std_msgs/Float64`` or as ``geometry_msgs/WrenchStamped`` (force.z, N).
-Seeded, so a run is reproducible; stops after ``count`` samples if ``count`` > 0.
+``rate_hz``, as ``std_msgs/Float64`` or as ``geometry_msgs/WrenchStamped`` (force.z, N), with a
+history of ``qos_depth`` samples.
+Seeded, so a run is reproducible; stops after ``count`` samples if ``count`` > 0. In a
+process that also listens to the answers, ``may_publish(sent)`` can hold the next sample back
+(flow control), so that no history overflows when the consumer falls behind.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
@@ -20,12 +25,14 @@ _TYPES = {"std_msgs/msg/Float64": Float64, "geometry_msgs/msg/WrenchStamped": Wr
 
 
 class SyntheticLoadNode(Node):
-    def __init__(self, **kwargs):
+    def __init__(self, may_publish: Callable[[int], bool] | None = None, **kwargs):
         super().__init__("synthetic_load", **kwargs)
+        self._may_publish = may_publish
         read_only = ParameterDescriptor(read_only=True)
         for name, default in (("topic", "load"), ("type", "std_msgs/msg/Float64"), ("a", 0.9),
                               ("process_variance", 1.0), ("measurement_variance", 1.0),
-                              ("mean", 0.0), ("rate_hz", 100.0), ("seed", 0), ("count", 0)):
+                              ("mean", 0.0), ("rate_hz", 100.0), ("seed", 0), ("count", 0),
+                              ("qos_depth", 10)):
             self.declare_parameter(name, default, read_only)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         if p("type") not in _TYPES:
@@ -39,7 +46,7 @@ class SyntheticLoadNode(Node):
         self._count = p("count")
         self._sent = 0
         self._class = _TYPES[p("type")]
-        self._publisher = self.create_publisher(self._class, p("topic"), 10)
+        self._publisher = self.create_publisher(self._class, p("topic"), p("qos_depth"))
         self._timer = self.create_timer(1.0 / p("rate_hz"), self._publish)
 
     def _publish(self) -> None:
@@ -48,6 +55,8 @@ class SyntheticLoadNode(Node):
             return
         if self._sent == 0 and self._publisher.get_subscription_count() == 0:
             return  # nobody listens yet: do not start the series into the void
+        if self._may_publish is not None and not self._may_publish(self._sent):
+            return
         value = float(self.measurements[self._sent % self.measurements.size])
         msg = self._class()
         if self._class is Float64:
