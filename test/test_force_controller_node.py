@@ -1,11 +1,12 @@
-"""Node force_controller over real topics against a lock-step force-table stand-in."""
+"""Node force_controller over real topics against a lock-step force-table stand-in on sim time."""
 
 import math
-import time
 
 import pytest
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
 from rclpy.parameter import Parameter
+from rclpy.time import Time
+from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64
 
 from hex_control.nodes.force_controller import ForceControllerNode
@@ -13,76 +14,96 @@ from hex_control.plant.force_table import ForceTable, ForceTableParameters
 from ros_harness import wait_until
 
 
-class TablePlant:
-    """Each command advances the table one control period (5 ms) and publishes the wrench."""
+class LockStepTablePlant:
+    """A force table on sim time: each command advances it one control period (5 ms), then
+    it publishes the wrench, the setpoint its schedule gives for the new time, and /clock,
+    whose tick fires the controller's next period. Time moves only when the loop does, so
+    what the test sees in sim time does not depend on how busy the machine is."""
 
-    def __init__(self, ros):
+    PERIOD_NS = 5_000_000  # whole nanoseconds: a float stamp 1 ns short of a period fires no timer
+
+    def __init__(self, ros, setpoint_at, silent_from_s=math.inf):
         self.table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=0.0), step_s=0.001)
         self.table.reset(-2.0)
+        self.setpoint_at, self.silent_from_s = setpoint_at, silent_from_s
+        self.time_ns = 0
+        self.nan_sent = False
+        self.history = []  # (sim time s, command mm, force N) after each step
         self.node = ros.node("table_plant")
-        self.commands = []
-        self.publisher = self.node.create_publisher(WrenchStamped, "/plant/wrench", 100)
+        self.wrenches = self.node.create_publisher(WrenchStamped, "/plant/wrench", 100)
+        self.setpoints = self.node.create_publisher(Float64, "/force_controller/setpoint", 100)
+        self.clock = self.node.create_publisher(Clock, "/clock", 100)
         self.node.create_subscription(Float64, "/plant/force_axis_command", self.on_command, 100)
-        self.silent = False
+        # liveness only: the first tick may go out before the controller's /clock has matched
+        self.node.create_timer(0.5, lambda: None if self.history else self.publish())
 
     def on_command(self, msg: Float64) -> None:
-        self.commands.append(msg.data)
         for _ in range(5):
             self.table.step(msg.data)
-        if not self.silent:
+        self.time_ns += self.PERIOD_NS
+        self.history.append((self.time_s, msg.data, self.table.force_n))
+        self.publish()
+
+    @property
+    def time_s(self) -> float:
+        return self.time_ns * 1e-9
+
+    def publish(self) -> None:
+        stamp = Time(nanoseconds=self.time_ns + self.PERIOD_NS).to_msg()
+        if self.time_s < self.silent_from_s:
             wrench = WrenchStamped()
+            wrench.header.stamp = stamp
             wrench.wrench.force.z = self.table.measured_n
-            self.publisher.publish(wrench)
+            self.wrenches.publish(wrench)
+        elif not self.nan_sent:  # its last word is malformed
+            self.wrenches.publish(WrenchStamped(wrench=Wrench(force=Vector3(z=math.nan))))
+            self.nan_sent = True
+        setpoint = self.setpoint_at(self.time_s)
+        if setpoint is not None:
+            self.setpoints.publish(Float64(data=setpoint))
+        self.clock.publish(Clock(clock=stamp))
+
+    def run_until(self, time_s: float) -> None:
+        wait_until(lambda: self.time_s >= time_s, 120.0, what=f"sim time {time_s} s")
+
+    def at(self, time_s: float):
+        """(command mm, force N) at the first step at or after ``time_s``."""
+        return next((command, force) for t, command, force in self.history if t >= time_s)
 
 
-@pytest.fixture
-def loop(ros):
-    plant = TablePlant(ros)
+def start_loop(ros, plant):
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
+        Parameter("use_sim_time", value=True),
         Parameter("kp_mm_per_n", value=0.0098), Parameter("ki_mm_per_n_s", value=0.48)]))  # ITAE-tuned
-    setpoints = ros.node("setpoint_source").create_publisher(Float64, "/force_controller/setpoint", 10)
+    for topic in ("/plant/wrench", "/force_controller/setpoint", "/clock"):
+        ros.wait_for_match(plant.node, topic, subscribers=1)
     ros.wait_for_match(plant.node, "/plant/force_axis_command", publishers=1)
-    return plant, controller, setpoints
+    plant.publish()
+    return controller
 
 
-def hold(setpoints, value, seconds, until=None):
-    """Keep publishing the setpoint for ``seconds`` (or, with ``until``, until it holds,
-    for at most ``seconds`` -- the loop runs in wall time on a noisy machine)."""
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        setpoints.publish(Float64(data=value))
-        if until is not None and until():
-            return
-        time.sleep(0.05)
-
-
-def test_tracks_a_force_step_then_the_watchdog_retracts(loop):
-    plant, controller, setpoints = loop
-    hold(setpoints, 20.0, 10.0, until=lambda: len(plant.commands) > 600)  # 3 s of control
-    assert plant.table.force_n == pytest.approx(20.0, abs=1.0)
-    assert max(plant.commands) <= 2.0 and min(plant.commands) >= -2.0
-    count = len(plant.commands)
-    # no more setpoints: stale after 0.5 s, then a ramp to -2 mm over 0.5 s
-    wait_until(lambda: plant.commands[-1] == -2.0, 10.0, what="the retracted command")
-    assert len(plant.commands) > count + 100 and plant.table.force_n == 0.0
+def test_tracks_a_force_step_then_the_watchdog_retracts(ros):
+    # 20 N for 3 s, no setpoint for 2 s (stale after 0.5 s, then a ramp to -2 mm over 0.5 s), 10 N again
+    schedule = lambda t: 20.0 if t < 3.0 else (10.0 if t >= 5.0 else None)  # noqa: E731
+    plant = LockStepTablePlant(ros, schedule)
+    controller = start_loop(ros, plant)
+    plant.run_until(7.5)
+    assert plant.at(3.0)[1] == pytest.approx(20.0, abs=1.0)
+    assert max(c for _, c, _ in plant.history) <= 2.0 and min(c for _, c, _ in plant.history) >= -2.0
+    assert plant.at(3.4)[1] == pytest.approx(20.0, abs=1.0)  # within the setpoint timeout: still tracking
+    assert plant.at(4.1) == (-2.0, 0.0)  # retracted 0.5 s + 0.5 s after the last setpoint
     assert controller.diagnostics.counters["watchdog_trips"] == 1
-    restart = len(plant.commands)
-    hold(setpoints, 10.0, 10.0, until=lambda: len(plant.commands) > restart + 500)  # fresh again
-    assert plant.table.force_n == pytest.approx(10.0, abs=1.0)
+    assert plant.at(7.5)[1] == pytest.approx(10.0, abs=1.0)  # fresh again
 
 
-def test_stale_measurement_trips_and_nan_is_rejected(ros, loop):
-    plant, controller, setpoints = loop
-    hold(setpoints, 15.0, 10.0, until=lambda: len(plant.commands) > 300)
-    bad = ros.node("bad_sensor").create_publisher(WrenchStamped, "/plant/wrench", 10)
-    wrench = WrenchStamped()
-    wrench.wrench.force.z = math.nan
-    bad.publish(wrench)
-    plant.silent = True
-    hold(setpoints, 15.0, 10.0, until=lambda: plant.commands[-1] == -2.0)
-    assert plant.commands[-1] == -2.0
-    assert controller.diagnostics.counters["watchdog_trips"] >= 1
-    wait_until(lambda: controller.diagnostics.counters["rejected_measurement"] >= 1, 2.0, what="NaN counted")
+def test_stale_measurement_trips_and_nan_is_rejected(ros):
+    plant = LockStepTablePlant(ros, lambda t: 15.0, silent_from_s=1.5)  # then one NaN, then nothing
+    controller = start_loop(ros, plant)
+    plant.run_until(2.5)
+    assert plant.at(1.5)[1] == pytest.approx(15.0, abs=1.0)
+    assert plant.at(2.2)[0] == -2.0  # stale after 0.1 s, ramped to retracted over 0.5 s
+    assert controller.diagnostics.counters["watchdog_trips"] == 1
+    assert controller.diagnostics.counters["rejected_measurement"] == 1
 
 
 def test_negative_stamps_are_refused_not_a_crash(ros):
