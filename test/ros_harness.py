@@ -45,15 +45,25 @@ def wait_until(condition, timeout_s: float, interval_s: float = 0.02, what: str 
         time.sleep(interval_s)
 
 
+def diagnostics_value(diagnostics: list, node_name: str, key: str):
+    """A node's latest value of a /diagnostics key (a counter or a value) among the collected
+    DiagnosticArrays, or None."""
+    for array in reversed(diagnostics):
+        for status in array.status:
+            if status.name == node_name:
+                return {v.key: v.value for v in status.values}.get(key)
+    return None
+
+
 class RosHarness:
     """One private rclpy context with an executor spinning in a background thread."""
 
-    def __init__(self, domain_id: int):
+    def __init__(self, domain_id: int, executor_class=SingleThreadedExecutor):
         self.context = Context()
         rclpy.init(context=self.context, domain_id=domain_id)
-        # SingleThreadedExecutor: rclpy's MultiThreadedExecutor delivered 226 of 1001
+        # SingleThreadedExecutor by default: rclpy's MultiThreadedExecutor delivered 226 of 1001
         # messages of a 200 Hz stream in 5 s here (the single-threaded one all 1001)
-        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor = executor_class(context=self.context)
         self._nodes = []
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()

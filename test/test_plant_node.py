@@ -9,7 +9,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
 from hex_control_msgs.msg import ForceTrajectory
-from ros_harness import wait_until
+from ros_harness import diagnostics_value, wait_until
 
 KEEP = QoSProfile(depth=10_000)
 LATCHED_QOS = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -27,11 +27,7 @@ def _stamp_s(msg) -> float:
 
 def _plant_counter(diagnostics, key: str):
     """The plant's latest value of a /diagnostics counter, or None."""
-    for array in reversed(diagnostics):
-        for status in array.status:
-            if status.name == "/plant":
-                return {v.key: v.value for v in status.values}.get(key)
-    return None
+    return diagnostics_value(diagnostics, "/plant", key)
 
 
 def _lockstep_run(ros, spawn, end_time_s: float, trajectory_s: float = 10.0) -> list[tuple[float, float]]:

@@ -35,7 +35,7 @@ same job, or a contour without a job id). If none has arrived within ``contour_w
 the command is refused. Planning runs in a worker thread; nothing is published for a
 command until its whole plan exists, and nothing at all for a refused one. A command
 already answered or in hand (a latched re-delivery, or the sequence planner sending it
-again) is ignored; each new one is logged when it arrives and when it is planned. One
+again) is ignored and counted (``redelivered``); each new one is logged when it arrives and when it is planned. One
 command waits for its contour at a time: of two, the one for an earlier pass of the same job
 is refused as superseded, so every command ends exactly once (planned or refused).
 """
@@ -114,7 +114,8 @@ class PassPlannerNode(Node):
         key = _key(msg)
         in_hand = [entry[0] for entry in (self.planning, self.checking) if entry] + [self.pending]
         if key in self.answered or any(c is not None and _key(c) == key for c in in_hand):
-            return  # a re-delivery (latched, or the sequence planner sending again)
+            self.diagnostics.count("redelivered")  # latched, or the sequence planner sending it again
+            return
         self.diagnostics.count("commands")
         self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: cut {msg.cut_depth_mm:.4f} mm "
                                f"at {msg.feed_speed_mm_s:.2f} mm/s, K1 {msg.specific_energy_j_mm3:g} J/mm^3")
