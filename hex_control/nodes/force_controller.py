@@ -39,49 +39,76 @@ import math
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.time import Time
 from std_msgs.msg import Float64
 
-from hex_control.control.force_law import EnergyForceLaw, PIForceLaw, roll_off_filter
+from hex_control.control.force_law import ROLL_OFFS, EnergyForceLaw, PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
 from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import ParameterError, declare_parameters
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
+
+_TABLE = ForceTableParameters()
+
+PARAMETERS = {
+    "rate_hz": Spec(200.0, "control rate of the timer trigger; the period of the force law", 1.0, 10_000.0),
+    "trigger": Spec("timer", "timer: a period of the node clock; measurement: each new wrench (lock-step)",
+                    choices=("timer", "measurement")),
+    "law": Spec("pi", "force law: PI (seed 002 eq. 7.6) or energy-optimal (seed 004 eq. 9-10)",
+                choices=("pi", "energy_optimal")),
+    "kp_mm_per_n": Spec(0.002, "PI proportional gain", 0.0, 1.0),
+    "ki_mm_per_n_s": Spec(0.05, "PI integral gain", 0.0, 100.0),
+    "output_min_mm": Spec(-2.0, "lowest table command: the retracted stop", -50.0, 50.0),
+    "output_max_mm": Spec(2.0, "highest table command", -50.0, 50.0),
+    "setpoint_timeout_s": Spec(0.5, "age of a direct setpoint after which the watchdog retracts", 0.001, 60.0,
+                               read_only=False),
+    "measurement_timeout_s": Spec(0.1, "age of the measured force after which the watchdog retracts",
+                                  0.001, 60.0, read_only=False),
+    "ramp_down_s": Spec(0.5, "time of the watchdog's ramp over the whole command range", 0.001, 60.0,
+                        read_only=False),
+    "feed_forward_mm_per_n": Spec(0.0, "gain on the predicted load fluctuation (prediction - mean)", -1.0, 1.0,
+                                  read_only=False),
+    "roll_off": Spec("none", "filter on the PI output (seed 002 section 8.3 item 2)",
+                     choices=ROLL_OFFS),
+    "roll_off_hz": Spec(8.0, "corner or notch frequency of roll_off (Hz)", 0.01, 1000.0),
+    "roll_off_quality": Spec(0.5, "quality factor of the roll-off filter", 0.01, 100.0),
+    "stiffness_n_per_mm": Spec(_TABLE.stiffness_n_mm, "contact stiffness K_x of the energy-optimal law's model",
+                               1e-3, 1e6),
+    "contact_mm": Spec(_TABLE.contact_mm, "table position at which the disk touches the work", -50.0, 50.0),
+    "energy_q1": Spec(1.0, "energy-optimal law: weight on the force error", 0.0, 1e9),
+    "energy_q2": Spec(1.0, "energy-optimal law: weight on the rate of the force error", 0.0, 1e9),
+    "energy_r": Spec(1e3, "energy-optimal law: weight on the command energy", 1e-12, 1e12),
+    "energy_correction_limit_mm": Spec(0.5, "energy-optimal law: largest correction per period", 0.0, 50.0),
+    "touch_standoff_mm": Spec(0.1, "touch-down: distance short of contact_mm to approach to", 0.0, 10.0),
+    "touch_speed_mm_s": Spec(10.0, "touch-down: approach speed", 0.01, 1000.0),
+    "touch_settle_s": Spec(0.1, "touch-down: time at the stand-off before the pass starts", 0.0, 10.0),
+    "touch_felt_n": Spec(2.0, "touch-down: a force above this stops the approach (early contact)", 0.0, 1000.0),
+}
 
 
 class ForceControllerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("force_controller", **kwargs)
-        read_only = ParameterDescriptor(read_only=True)
-        for name, default in (("rate_hz", 200.0), ("trigger", "timer"), ("law", "pi"), ("kp_mm_per_n", 0.002),
-                              ("ki_mm_per_n_s", 0.05), ("output_min_mm", -2.0), ("output_max_mm", 2.0),
-                              ("setpoint_timeout_s", 0.5), ("measurement_timeout_s", 0.1), ("ramp_down_s", 0.5),
-                              ("feed_forward_mm_per_n", 0.0), ("roll_off", "none"), ("roll_off_hz", 8.0),
-                              ("roll_off_quality", 0.5), ("stiffness_n_per_mm", ForceTableParameters().stiffness_n_mm), ("contact_mm", 0.0),
-                              ("energy_q1", 1.0), ("energy_q2", 1.0), ("energy_r", 1e3),
-                              ("energy_correction_limit_mm", 0.5), ("touch_standoff_mm", 0.1),
-                              ("touch_speed_mm_s", 10.0), ("touch_settle_s", 0.1), ("touch_felt_n", 2.0)):
-            self.declare_parameter(name, default, read_only)
+        declare_parameters(self, PARAMETERS)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.period_s = 1.0 / p("rate_hz")
         self.limits = (p("output_min_mm"), p("output_max_mm"))
-        if p("trigger") not in ("timer", "measurement"):
-            raise ValueError(f"trigger must be timer or measurement, got {p('trigger')!r}")
+        if not self.limits[0] < self.limits[1]:
+            raise ParameterError(f"output_min_mm {self.limits[0]} must be below output_max_mm {self.limits[1]}")
         if p("law") == "pi":
             self.law = PIForceLaw(TustinPI(p("kp_mm_per_n"), p("ki_mm_per_n_s"), self.period_s, *self.limits),
                                   roll_off_filter(p("roll_off"), p("roll_off_hz"), self.period_s,
                                                   p("roll_off_quality")))
-        elif p("law") == "energy_optimal":
+        else:
             self.law = EnergyForceLaw(self.period_s, p("stiffness_n_per_mm"), p("contact_mm"), q1=p("energy_q1"),
                                       q2=p("energy_q2"), r=p("energy_r"),
                                       correction_limit_mm=p("energy_correction_limit_mm"))
-        else:
-            raise ValueError(f"law must be pi or energy_optimal, got {p('law')!r}")
         self.law.reset(self.limits[0])
         self.touch_down = TouchDown(p("contact_mm"), p("touch_standoff_mm"), p("touch_speed_mm_s"),
                                     p("touch_settle_s"), p("touch_felt_n"))

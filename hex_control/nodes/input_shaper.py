@@ -30,12 +30,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, stamp_s, time_msg, tool_path_message, tool_path_rows
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node
 from hex_control.shaping.filter import ShaperFilter, shape_whole
 from hex_control.shaping.optimize import DesignProblem, optimize
@@ -44,29 +46,29 @@ from hex_control_msgs.msg import ToolPath
 
 TYPES = {"pose": PoseStamped, "joint_state": JointState}
 SHAPER_PARAMETERS = ("shaper", "frequency_hz", "damping", "vibration_tolerance", "optimized_frequencies_hz")
+PARAMETERS = {
+    "input_type": Spec("pose", "message type of the sample stream", choices=tuple(TYPES)),
+    "input_topic": Spec("/motion/setpoint_raw", "the unshaped sample stream"),
+    "output_topic": Spec("/motion/setpoint", "the shaped sample stream"),
+    "sample_period_s": Spec(0.005, "period of the sample stream and of a shaped tool path", 1e-4, 1.0),
+    "interpolate": Spec(True, "place impulses between samples by linear interpolation"),
+    # the shaper may be changed live (validated, then re-designed off the executor thread)
+    "shaper": Spec("zvd", "a closed-form shaper or 'optimized' (a robust design over "
+                   "optimized_frequencies_hz)", choices=(*sorted(SHAPERS), "optimized"), read_only=False),
+    "frequency_hz": Spec(5.0, "design frequency of a closed-form shaper (Hz)", 0.01, 1000.0, read_only=False),
+    "damping": Spec(0.02, "design damping ratio of a closed-form shaper", 0.0, 0.99, read_only=False),
+    "vibration_tolerance": Spec(0.05, "residual vibration allowed by the EI shapers (fraction)", 0.0, 0.5,
+                                read_only=False),
+    "optimized_frequencies_hz": Spec([4.25, 5.0, 7.5], "modes the optimized shaper is designed over (Hz)",
+                                     read_only=False),
+}
 
 
 class InputShaperNode(Node):
     def __init__(self, **kwargs):
         super().__init__("input_shaper", **kwargs)
-        read_only = ParameterDescriptor(read_only=True)
-        self.declare_parameter("input_type", "pose", read_only)
-        self.declare_parameter("input_topic", "/motion/setpoint_raw", read_only)
-        self.declare_parameter("output_topic", "/motion/setpoint", read_only)
-        self.declare_parameter("sample_period_s", 0.005, read_only)
-        self.declare_parameter("interpolate", True, read_only)
-        self.declare_parameter("shaper", "zvd", ParameterDescriptor(
-            description=f"one of {sorted(SHAPERS)} or 'optimized'"))
-        self.declare_parameter("frequency_hz", 5.0, ParameterDescriptor(
-            floating_point_range=[FloatingPointRange(from_value=0.01, to_value=1000.0, step=0.0)]))
-        self.declare_parameter("damping", 0.02, ParameterDescriptor(
-            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.99, step=0.0)]))
-        self.declare_parameter("vibration_tolerance", 0.05, ParameterDescriptor(
-            floating_point_range=[FloatingPointRange(from_value=0.0, to_value=0.5, step=0.0)]))
-        self.declare_parameter("optimized_frequencies_hz", [4.25, 5.0, 7.5])
+        declare_parameters(self, PARAMETERS)
         kind = self.get_parameter("input_type").value
-        if kind not in TYPES:
-            raise ValueError(f"input_type must be one of {sorted(TYPES)}, got {kind!r}")
         self._type = TYPES[kind]
         self.diagnostics = Diagnostics(self)
         self._designer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shaper-design")

@@ -31,7 +31,6 @@ import threading
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
@@ -46,6 +45,8 @@ from hex_control.kinematics.workspace import compute_workspace, cross_section
 from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, tool_path_rows
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPath, ToolPose
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
 
@@ -165,14 +166,16 @@ class KinematicsCore:
         response.error_code.val = Code.SUCCESS
         return response
 
+PARAMETERS = {
+    "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")), "machine YAML (config/machines/)"),
+    "quaternion_tolerance": Spec(1e-3, "|1 - |q|| above which a setpoint orientation is malformed", 1e-9, 0.5),
+}
+
 
 class KinematicsNode(Node):
     def __init__(self, **kwargs):
         super().__init__("kinematics", **kwargs)
-        self.declare_parameter("machine_file", str(config_file("machines/nist_ingersoll.yaml")),
-                               ParameterDescriptor(description="machine YAML (config/machines/)", read_only=True))
-        self.declare_parameter("quaternion_tolerance", 1e-3, ParameterDescriptor(
-            description="|1 - |q|| above which a setpoint orientation is malformed", read_only=True))
+        declare_parameters(self, PARAMETERS)
         self.core = KinematicsCore(*load_machine(self.get_parameter("machine_file").value))
         self.diagnostics = Diagnostics(self)
         self.diagnostics.set("machine", getattr(self.core.machine, "name", "pru3"))
@@ -308,7 +311,9 @@ def main(args=None) -> int:
     stop = runtime.init(args)
     nodes, executors, worker = [], [], None
     try:
-        node = KinematicsNode()
+        node = runtime.create_node(KinematicsNode)
+        if node is None:
+            return 2
         companion = WorkspaceService(node.core, f"{node.get_fully_qualified_name()}/compute_workspace",
                                      namespace=node.get_namespace())
         nodes = [node, companion]

@@ -23,8 +23,7 @@ import math
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
 from rclpy.node import Node
@@ -33,6 +32,8 @@ from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.messages import check_numeric_field, get_field, message_class
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node
 from hex_control_msgs.msg import LoadPrediction
 
@@ -41,14 +42,37 @@ _MIN_IDENTIFICATION_SAMPLES = 50
 _MODEL_PARAMETERS = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
 
 
-def _float_range(low: float, high: float) -> list[FloatingPointRange]:
-    return [FloatingPointRange(from_value=low, to_value=high, step=0.0)]
+LIVE = dict(read_only=False)  # the model's values: set live (or by the online identification)
+PARAMETERS = {
+    "input_topic": Spec("load", "topic of the measured load"),
+    "input_type": Spec("std_msgs/msg/Float64", "message type of input_topic"),
+    "input_field": Spec("data", "dotted path of the numeric load field, e.g. wrench.force.z"),
+    "quantity": Spec("load", "name and unit of the predicted quantity, e.g. normal_force_n"),
+    "a": Spec(0.9, "Gauss-Markov coefficient a (eq. 6.2)", -0.9999, 0.9999, **LIVE),
+    "process_variance": Spec(1.0, "W, variance of w(t) (load unit^2)", 0.0, 1e12, **LIVE),
+    "measurement_variance": Spec(1.0, "V, variance of v(t) (load unit^2)", 0.0, 1e12, **LIVE),
+    "initial_variance": Spec(-1.0, "P(0) = sigma(0) (load unit^2); < 0 = stationary W/(1-a^2)", -1e12, 1e12,
+                             **LIVE),
+    "mean": Spec(0.0, "mean load L_bar subtracted before filtering (load unit)", -1e12, 1e12, **LIVE),
+    "identify_window": Spec(0, "identify a, W, V, mean online over the last N samples; 0 = off", 0, 1_000_000),
+    "identify_every": Spec(0, "samples between identifications; 0 = window/4", 0, 1_000_000),
+    "drift_rate_variance": Spec(0.0, "variance of the drift's change per sample (load unit^2 per sample^2); "
+                                "> 0 adds a drifting mode (IMM), 0 = seed 000's predictor alone", 0.0, 1e12),
+    "drift_switch_probability": Spec(0.05, "probability per sample that the load starts or stops drifting",
+                                     1e-9, 0.4999),
+    "drift_initial_rate_variance": Spec(-1.0, "prior variance of the drift per sample (load unit^2 per "
+                                        "sample^2); < 0 = drift_rate_variance", -1e12, 1e12),
+    "valid_min": Spec(-1e9, "measurements below this are rejected (load unit)", -1e12, 1e12),
+    "valid_max": Spec(1e9, "measurements above this are rejected (load unit)", -1e12, 1e12),
+    "qos_depth": Spec(100, "history depth of the input and output streams (samples)", 1, 10_000),
+    "diagnostics_period_s": Spec(1.0, "period of /diagnostics (s)", 0.01, 60.0),
+}
 
 
 class LoadPredictorNode(Node):
     def __init__(self, **kwargs):
         super().__init__("load_predictor", **kwargs)
-        self._declare_parameters()
+        declare_parameters(self, PARAMETERS)
         p = self.get_parameter
         self._input_field = p("input_field").value
         input_class = message_class(p("input_type").value)
@@ -79,43 +103,6 @@ class LoadPredictorNode(Node):
             post_callback=lambda _jump: self.reset("clock jumped back"))
 
     # -- parameters ------------------------------------------------------------------
-    def _declare_parameters(self) -> None:
-        def declare(name, default, description, read_only=False, **ranges):
-            self.declare_parameter(name, default, ParameterDescriptor(
-                description=description, read_only=read_only, **ranges))
-
-        declare("input_topic", "load", "topic of the measured load", read_only=True)
-        declare("input_type", "std_msgs/msg/Float64", "message type of input_topic", read_only=True)
-        declare("input_field", "data", "dotted path of the numeric load field, e.g. wrench.force.z",
-                read_only=True)
-        declare("quantity", "load", "name and unit of the predicted quantity, e.g. normal_force_n",
-                read_only=True)
-        declare("a", 0.9, "Gauss-Markov coefficient a (eq. 6.2)",
-                floating_point_range=_float_range(-0.9999, 0.9999))
-        declare("process_variance", 1.0, "W, variance of w(t) (load unit^2)",
-                floating_point_range=_float_range(0.0, 1e12))
-        declare("measurement_variance", 1.0, "V, variance of v(t) (load unit^2)",
-                floating_point_range=_float_range(0.0, 1e12))
-        declare("initial_variance", -1.0, "P(0) = sigma(0) (load unit^2); < 0 = stationary W/(1-a^2)")
-        declare("mean", 0.0, "mean load L_bar subtracted before filtering (load unit)")
-        declare("identify_window", 0, "identify a, W, V, mean online over the last N samples; 0 = off",
-                integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
-        declare("identify_every", 0, "samples between identifications; 0 = window/4",
-                integer_range=[IntegerRange(from_value=0, to_value=1_000_000, step=1)], read_only=True)
-        declare("drift_rate_variance", 0.0, "variance of the drift's change per sample (load unit^2 per "
-                "sample^2); > 0 adds a drifting mode (IMM), 0 = seed 000's predictor alone",
-                floating_point_range=_float_range(0.0, 1e12), read_only=True)
-        declare("drift_switch_probability", 0.05, "probability per sample that the load starts or stops drifting",
-                floating_point_range=_float_range(1e-9, 0.4999), read_only=True)
-        declare("drift_initial_rate_variance", -1.0, "prior variance of the drift per sample (load unit^2 per "
-                "sample^2); < 0 = drift_rate_variance", read_only=True)
-        declare("valid_min", -1e9, "measurements below this are rejected (load unit)", read_only=True)
-        declare("valid_max", 1e9, "measurements above this are rejected (load unit)", read_only=True)
-        declare("qos_depth", 100, "history depth of the input and output streams (samples)",
-                integer_range=[IntegerRange(from_value=1, to_value=10_000, step=1)], read_only=True)
-        declare("diagnostics_period_s", 1.0, "period of /diagnostics (s)",
-                floating_point_range=_float_range(0.01, 60.0), read_only=True)
-
     def _make_predictor(self) -> OneStepPredictor | DriftingLoadPredictor:
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         if p("drift_rate_variance") <= 0:

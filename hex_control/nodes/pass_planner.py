@@ -49,7 +49,6 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 
 from hex_control.grinding.coefficients import plausible_specific_energy
@@ -60,6 +59,8 @@ from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message, contour_to_message,
                                           part_quality_message, stamp_s, time_msg, tool_path_message)
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
@@ -67,20 +68,23 @@ from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
 
+PARAMETERS = {
+    "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),
+    "contour_wait_s": Spec(5.0, "wall time a command waits for its contour (or the reachability check for "
+                           "its answer) before it is refused", 0.01, 3600.0),
+    "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the start "
+                          "of the pass's path (s): the planning time charged between passes", 0.0, 60.0,
+                          read_only=False),
+    "reachability_service": Spec("/kinematics/test_pose", "TestPose service for the path of every pass; "
+                                 "'' = no check"),
+    "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
+}
+
 
 class PassPlannerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("pass_planner", **kwargs)
-        read_only = ParameterDescriptor(read_only=True)
-        self.declare_parameter("config", "pass_planner.yaml", read_only)
-        self.declare_parameter("contour_wait_s", 5.0, read_only)
-        self.declare_parameter("start_delay_s", 0.6, ParameterDescriptor(
-            description="from the later of the contour's plant time and the node clock to the start "
-                        "of the pass's path (s): the planning time charged between passes"))
-        self.declare_parameter("reachability_service", "/kinematics/test_pose", ParameterDescriptor(
-            description="TestPose service for the path of every pass; '' = no check", read_only=True))
-        self.declare_parameter("machine_file", "", ParameterDescriptor(
-            description="machine YAML whose bead_frame (if any) places the bead; '' = the config's", read_only=True))
+        declare_parameters(self, PARAMETERS)
         machine_file = self.get_parameter("machine_file").value
         self.config = load_pass_planner_config(self.get_parameter("config").value,
                                                load_machine(machine_file)[1] if machine_file else None)

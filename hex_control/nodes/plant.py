@@ -87,7 +87,6 @@ import numpy as np
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped, WrenchStamped
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rosgraph_msgs.msg import Clock
@@ -105,6 +104,8 @@ from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import (LATCHED, RESULTS, STREAM, TELEMETRY, contour_to_message,
                                           part_quality_message, stamp_s, strut_trajectory_from_message, time_msg)
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
@@ -113,7 +114,7 @@ from hex_control.plant.pacing import RealTimePacer
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.limits import ForceAxisLimits, check_strokes
-from hex_control.plant.pru3_machine import Pru3Machine
+from hex_control.plant.pru3_machine import DRIVES, Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -121,39 +122,92 @@ from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
 
 HELD_TRAJECTORIES = 4  # strut trajectories held at once (the running one and those queued after it)
 
-TABLE_PARAMETERS = ("stiction_n", "runout_mm", "disk_frequency_hz", "disk_slowdown_hz_per_n", "sensor_noise_n",
-                    "sensor_cutoff_hz", "contact_mm", "rotational_stiffness_n_mm_rad", "disk_radius_mm",
-                    "position_loop")
-MACHINE_PARAMETERS = ("servo_frequency_hz", "servo_damping", "mode_frequency_hz", "mode_damping")
-VARIATION_PARAMETERS = ("specific_energy_cv", "friction_cv", "dulling_per_pass", "wear_mm_per_pass")
-CELL_PARAMETERS = (("grinding", False), ("machine_file", str(config_file("machines/nist_ingersoll.yaml"))),
-                   ("pass_planner_config", "pass_planner.yaml"), ("bead_file", ""), ("bead_length_mm", 300.0),
-                   ("bead_height_mm", 1.0), ("bead_end_ramp_mm", 12.0), ("bead_ripple_mm", 0.05), ("bead_seed", 0),
-                   ("end_zone_mm", 15.0),  # the bead ends of the part-quality figures
-                   ("burn_coefficient", 0.0), ("command_timeout_s", 0.1), ("retract_mm", -5.0), ("settle_deflection_mm", 0.01),
-                   ("max_settle_s", 10.0), *((n, getattr(ProcessVariation(), n)) for n in VARIATION_PARAMETERS))
+_TABLE, _MACHINE, _VARIATION = ForceTableParameters(), MachineParameters(), ProcessVariation()
+
+#: the force table (seed 002 ch. 7), the machine's servos and mode, the process's pass-to-pass variation
+TABLE_PARAMETERS = {
+    "stiction_n": Spec(_TABLE.stiction_n, "stiction of the table's slide", 0.0, 1000.0),
+    "runout_mm": Spec(_TABLE.runout_mm, "disk runout amplitude, once per revolution", 0.0, 5.0),
+    "disk_frequency_hz": Spec(_TABLE.disk_frequency_hz, "disk rotation frequency at zero force (Hz)", 5.0, 1000.0),
+    "disk_slowdown_hz_per_n": Spec(_TABLE.disk_slowdown_hz_per_n, "air-motor droop of the disk frequency",
+                                   0.0, 100.0),
+    "sensor_noise_n": Spec(_TABLE.sensor_noise_n, "standard deviation of the force sensor's noise", 0.0, 100.0),
+    "sensor_cutoff_hz": Spec(_TABLE.sensor_cutoff_hz, "corner of the force sensor's 2-pole low-pass (Hz)",
+                             0.1, 10_000.0),
+    "contact_mm": Spec(_TABLE.contact_mm, "table position at which the disk touches the work", -50.0, 50.0),
+    "rotational_stiffness_n_mm_rad": Spec(_TABLE.rotational_stiffness_n_mm_rad, "K_theta of the disk's mount "
+                                          "(eq. 7.1b: K_x = K_theta / R^2)", 1.0, 1e12),
+    "disk_radius_mm": Spec(_TABLE.disk_radius_mm, "disk radius R", 1.0, 1000.0),
+    "position_loop": Spec(_TABLE.position_loop, "table position loop: eq. 7.3 or eq. 7.2 (App. B)",
+                          choices=("two_pole", "third_order")),
+}
+MACHINE_PARAMETERS = {
+    "servo_frequency_hz": Spec(_MACHINE.servo_frequency_hz, "bandwidth of each strut servo (Hz)", 0.1, 10_000.0),
+    "servo_damping": Spec(_MACHINE.servo_damping, "damping ratio of each strut servo", 0.01, 10.0),
+    "mode_frequency_hz": Spec(_MACHINE.mode_frequency_hz, "frequency of the structural mode (Hz)", 0.1, 10_000.0),
+    "mode_damping": Spec(_MACHINE.mode_damping, "damping ratio of the structural mode", 0.0, 10.0),
+}
+VARIATION_PARAMETERS = {
+    "specific_energy_cv": Spec(_VARIATION.specific_energy_cv, "coefficient of variation of K1 pass to pass",
+                               0.0, 1.0),
+    "friction_cv": Spec(_VARIATION.friction_cv, "coefficient of variation of the friction mu pass to pass",
+                        0.0, 1.0),
+    "dulling_per_pass": Spec(_VARIATION.dulling_per_pass, "fraction by which K1 grows each pass", 0.0, 1.0),
+    "wear_mm_per_pass": Spec(_VARIATION.wear_mm_per_pass, "disk radius lost each pass", 0.0, 100.0),
+}
+PARAMETERS = {
+    "mode": Spec("lockstep", "lockstep: advance on each answering command; realtime: on the wall clock",
+                 choices=("lockstep", "realtime")),
+    "control_period_s": Spec(0.005, "period of the force loop: one measurement out, one command in", 1e-4, 1.0),
+    "internal_step_s": Spec(0.001, "integration step; control_period_s must be a whole number of them",
+                            1e-5, 1.0),
+    "real_time_factor": Spec(1.0, "sim s per wall s in realtime mode (and of a free-running lock-step)",
+                             0.01, 100.0),
+    "lockstep_timeout_s": Spec(1.0, "wall time a lock-step waits for a command before it re-sends the state "
+                               "(before the first) or advances with the held one (after)", 0.01, 60.0,
+                               read_only=False),
+    "seed": Spec(0, "seed of the sensor noise and of the process variation", 0, 2**31 - 1),
+    "end_time_s": Spec(0.0, "sim time at which the plant stops advancing; 0 = never", 0.0, 1e9),
+    "report_file": Spec("", "JSON file of the loop's timing, rewritten every second; '' = none"),
+    "clock_period_s": Spec(0.05, "sim time between /clock messages", 0.001, 10.0),
+    "telemetry_period_s": Spec(0.1, "sim time batched into one /plant/telemetry message", 0.001, 10.0),
+    "debug_streams": Spec(True, "publish true_wrench, deflection and tool_centre every period"),
+    "controller_status_topic": Spec("/force_controller/status", "latched status of the force controller: in "
+                                    "lock-step a pass starts only once it holds the pass; '' = do not wait"),
+    "table_start_mm": Spec(-1.0, "table position at start-up", -50.0, 50.0),
+    "strut_names": Spec([""], "joint names of the struts; [''] = the kinematics node's for the machine"),
+    "pru3_drive": Spec("lspd", "3-PRU slider drives: link-space PD or computed torque", choices=DRIVES),
+    "table_travel_max_mm": Spec(2.0, "the table's far stop: force commands are clamped to "
+                                "[retract_mm, table_travel_max_mm]", -50.0, 50.0),
+    "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
+                       0.0, 1e5),
+    "grinding": Spec(False, "hold a workpiece: a bead ground where the struts put the disk"),
+    "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")),
+                         "machine YAML (config/machines/); must match the kinematics node's"),
+    "pass_planner_config": Spec("pass_planner.yaml", "nominal process, disk and bead frame of the workpiece"),
+    "bead_file": Spec("", "bead CSV x_mm,z_mm[,parent_mm]; '' = a generated bead"),
+    "bead_length_mm": Spec(300.0, "length of a generated bead", 1.0, 10_000.0),
+    "bead_height_mm": Spec(1.0, "height of a generated bead", 0.0, 50.0),
+    "bead_end_ramp_mm": Spec(12.0, "length of a generated bead's end ramps", 0.0, 1000.0),
+    "bead_ripple_mm": Spec(0.05, "ripple amplitude of a generated bead", 0.0, 10.0),
+    "bead_seed": Spec(0, "seed of a generated bead's ripple", 0, 2**31 - 1),
+    "end_zone_mm": Spec(15.0, "length at each bead end that the part-quality figures report apart", 0.0, 1000.0),
+    "burn_coefficient": Spec(0.0, "C_B of the burn limit (eq. 5.11), N/sqrt(mm/s); 0 = off", 0.0, 1e6),
+    "command_timeout_s": Spec(0.1, "sim age of the last force command after which the table retracts",
+                              0.001, 60.0),
+    "retract_mm": Spec(-5.0, "the table's retract stop, its near stop", -50.0, 50.0),
+    "settle_deflection_mm": Spec(0.01, "a reset move is over when the structure is this still", 1e-6, 10.0),
+    "max_settle_s": Spec(10.0, "longest wait for the structure to settle after a pass", 0.0, 600.0),
+    **TABLE_PARAMETERS, **MACHINE_PARAMETERS, **VARIATION_PARAMETERS,
+}
 
 
 class PlantNode(Node):
     def __init__(self, **kwargs):
         super().__init__("plant", **kwargs)
-        read_only = ParameterDescriptor(read_only=True)
-        table_defaults, machine_defaults = ForceTableParameters(), MachineParameters()
-        for name, default in (("mode", "lockstep"), ("control_period_s", 0.005), ("internal_step_s", 0.001),
-                              ("real_time_factor", 1.0), ("lockstep_timeout_s", 1.0), ("seed", 0),
-                              ("end_time_s", 0.0), ("report_file", ""), ("clock_period_s", 0.05),
-                              ("telemetry_period_s", 0.1), ("debug_streams", True),
-                              ("controller_status_topic", "/force_controller/status"),
-                              ("table_start_mm", -1.0), ("strut_names", [""]), ("pru3_drive", "lspd"),
-                              ("table_travel_max_mm", 2.0), ("overload_n", 150.0),
-                              *CELL_PARAMETERS,
-                              *((n, getattr(table_defaults, n)) for n in TABLE_PARAMETERS),
-                              *((n, getattr(machine_defaults, n)) for n in MACHINE_PARAMETERS)):
-            self.declare_parameter(name, default, read_only)
+        declare_parameters(self, PARAMETERS)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
         self.mode = p("mode")
-        if self.mode not in ("lockstep", "realtime"):
-            raise ValueError(f"mode must be lockstep or realtime, got {self.mode!r}")
         self.period_s = p("control_period_s")
         machine_geometry, machine_document = load_machine(p("machine_file"))
         is_pru3 = isinstance(machine_geometry, Pru3Geometry)

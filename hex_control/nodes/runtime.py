@@ -20,6 +20,7 @@ import threading
 
 import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
@@ -65,12 +66,25 @@ def spin_until_stopped(executor, stop: threading.Event) -> None:
         executor.spin_once(timeout_sec=WAIT_S)
 
 
+def create_node(node_class):
+    """``node_class()``, or None once the reason it refused its parameters is printed on one
+    line (a value out of range, a bad choice, a missing file): not a traceback."""
+    try:
+        return node_class()
+    except (ParameterException, ValueError, OSError) as exc:
+        print(f"{node_class.__name__}: {exc}", file=sys.stderr)
+        return None
+
+
 def run_node(node_class, args=None) -> int:
-    """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly."""
+    """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly. A node
+    that refuses its parameters exits with 2."""
     stop = init(args)
     node = None
     try:
-        node = node_class()
+        node = create_node(node_class)
+        if node is None:
+            return 2
         executor = make_executor()
         executor.add_node(node)
         spin_until_stopped(executor, stop)

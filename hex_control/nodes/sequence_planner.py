@@ -35,7 +35,6 @@ import yaml
 from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Time as TimeMsg
 from diagnostic_msgs.msg import DiagnosticStatus
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 
@@ -47,6 +46,8 @@ from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, 
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
@@ -72,28 +73,31 @@ def goal_from_message(goal) -> JobGoal:
     width = goal.bead_width_mm or contour.bead_width_mm
     return JobGoal(goal.job_id or new_job_id(), float(height), float(width), float(length), float(goal.deadline_s))
 
+PARAMETERS = {
+    "planner_config": Spec(str(config_file("sequence_planner.yaml")), "sequence planner YAML: charges, grid, "
+                           "cut model"),
+    "job_dir": Spec(os.path.expanduser("~/.local/state/hex_control/jobs"), "directory of the job logs a "
+                    "restarted planner resumes from"),
+    "resolve_threshold": Spec(0.05, "relative change of K1 that triggers a re-solve", 0.0, 10.0, read_only=False),
+    "pass_timeout_s": Spec(300.0, "wall time to wait for a pass result before aborting the job", 1.0, 86_400.0,
+                           read_only=False),
+    "command_resend_s": Spec(5.0, "wall time after which a pass command the pass planner has not acknowledged "
+                             "on /pass_planner/status is published again (a lost delivery); 0 = never",
+                             0.0, 3600.0, read_only=False),
+    "prediction_wait_s": Spec(2.0, "wall time a decision waits for the K1 prediction from the pass just "
+                              "measured, when a predictor publishes; 0 = decide at once", 0.0, 600.0,
+                              read_only=False),
+    "max_deadline_s": Spec(1800.0, "longest goal deadline accepted: the policy solve grows with it (40000 s "
+                           "took 152 s and 1 GB on the executor thread); a longer one is rejected with the "
+                           "reason", 1.0, 86_400.0),
+    "max_material_mm": Spec(20.0, "highest mean bead height accepted, for the same reason", 0.01, 1000.0),
+}
+
 
 class SequencePlannerNode(Node):
     def __init__(self, **kwargs):
         super().__init__("sequence_planner", **kwargs)
-        read_only = ParameterDescriptor(read_only=True)
-        self.declare_parameter("planner_config", str(config_file("sequence_planner.yaml")), read_only)
-        self.declare_parameter("job_dir", os.path.expanduser("~/.local/state/hex_control/jobs"), read_only)
-        self.declare_parameter("resolve_threshold", 0.05, ParameterDescriptor(
-            description="relative change of K1 that triggers a re-solve"))
-        self.declare_parameter("pass_timeout_s", 300.0, ParameterDescriptor(
-            description="wall time to wait for a pass result before aborting the job (s)"))
-        self.declare_parameter("command_resend_s", 5.0, ParameterDescriptor(
-            description="wall time after which a pass command the pass planner has not acknowledged "
-                        "on /pass_planner/status is published again (a lost delivery) (s); 0 = never"))
-        self.declare_parameter("prediction_wait_s", 2.0, ParameterDescriptor(
-            description="wall time a decision waits for the K1 prediction from the pass just "
-                        "measured, when a predictor publishes (s); 0 = decide at once"))
-        self.declare_parameter("max_deadline_s", 1800.0, ParameterDescriptor(
-            description="longest goal deadline accepted (s): the policy solve grows with it (40000 s took 152 s "
-                        "and 1 GB on the executor thread); a longer one is rejected with the reason", read_only=True))
-        self.declare_parameter("max_material_mm", 20.0, ParameterDescriptor(
-            description="highest mean bead height accepted (mm), for the same reason", read_only=True))
+        declare_parameters(self, PARAMETERS)
         self.base_config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
         _, self.charges, self.grid, self.cut_model = load_planner_config(
             self.get_parameter("planner_config").value)

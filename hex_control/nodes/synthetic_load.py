@@ -14,31 +14,36 @@ from collections.abc import Callable
 
 import numpy as np
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
 from hex_control.estimation import GaussMarkovModel
+from hex_control.nodes.parameters import ParameterSpec as Spec
+from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node
 
 _TYPES = {"std_msgs/msg/Float64": Float64, "geometry_msgs/msg/WrenchStamped": WrenchStamped}
+
+PARAMETERS = {
+    "topic": Spec("load", "topic of the published load"),
+    "type": Spec("std_msgs/msg/Float64", "message type of topic", choices=tuple(_TYPES)),
+    "a": Spec(0.9, "Gauss-Markov coefficient a (eq. 6.2)", -0.9999, 0.9999),
+    "process_variance": Spec(1.0, "W, variance of w(t) (load unit^2)", 0.0, 1e12),
+    "measurement_variance": Spec(1.0, "V, variance of v(t) (load unit^2)", 0.0, 1e12),
+    "mean": Spec(0.0, "mean load L_bar (load unit)", -1e12, 1e12),
+    "rate_hz": Spec(100.0, "publishing rate", 0.01, 10_000.0),
+    "seed": Spec(0, "seed of the series", 0, 2**31 - 1),
+    "count": Spec(0, "samples to publish; 0 = a million, then the series repeats", 0, 1_000_000),
+    "qos_depth": Spec(10, "history depth of the publisher (samples)", 1, 10_000),
+}
 
 
 class SyntheticLoadNode(Node):
     def __init__(self, may_publish: Callable[[int], bool] | None = None, **kwargs):
         super().__init__("synthetic_load", **kwargs)
         self._may_publish = may_publish
-        read_only = ParameterDescriptor(read_only=True)
-        for name, default in (("topic", "load"), ("type", "std_msgs/msg/Float64"), ("a", 0.9),
-                              ("process_variance", 1.0), ("measurement_variance", 1.0),
-                              ("mean", 0.0), ("rate_hz", 100.0), ("seed", 0), ("count", 0),
-                              ("qos_depth", 10)):
-            self.declare_parameter(name, default, read_only)
+        declare_parameters(self, PARAMETERS)
         p = lambda name: self.get_parameter(name).value  # noqa: E731
-        if p("type") not in _TYPES:
-            raise ValueError(f"type must be one of {sorted(_TYPES)}, got {p('type')!r}")
-        if not p("rate_hz") > 0:
-            raise ValueError(f"rate_hz must be > 0, got {p('rate_hz')}")
         model = GaussMarkovModel(p("a"), p("process_variance"), p("measurement_variance"))
         total = p("count") if p("count") > 0 else 1_000_000
         _, measurements = model.simulate(total, np.random.default_rng(p("seed")))
