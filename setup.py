@@ -26,6 +26,7 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+        (f"share/{PACKAGE}/config/machines", glob("config/machines/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
