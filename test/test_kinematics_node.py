@@ -88,7 +88,8 @@ def test_bad_requests_get_error_codes_and_the_node_survives(client):
     assert client("inverse_kinematics", InverseKinematics.Request(poses=[nan_pose])).error_code.val == Code.INVALID_INPUT
     assert client("test_pose", TestPose.Request(poses=[nan_pose])).error_code.val == Code.INVALID_INPUT
     for bad in (ComputeWorkspace.Request(sector_count=10_000_000), ComputeWorkspace.Request(roll_rad=math.inf),
-                ComputeWorkspace.Request(resolution_mm=-1.0)):
+                ComputeWorkspace.Request(resolution_mm=-1.0),
+                ComputeWorkspace.Request(slice_heights_mm=[-2100.0] * 10_000)):  # about 5 min of slices
         assert client("compute_workspace", bad).error_code.val == Code.INVALID_INPUT
     assert client("compute_workspace", ComputeWorkspace.Request(roll_rad=1.5)).error_code.val == Code.UNREACHABLE
     assert client("test_pose", TestPose.Request(poses=[REACHABLE])).error_code.val == Code.SUCCESS

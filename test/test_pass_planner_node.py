@@ -138,6 +138,25 @@ def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, comm
     assert result.status == PassResult.REJECTED and reason in result.reason
 
 
+def test_an_oversized_contour_is_refused_at_once_and_the_next_pass_is_planned(planner):
+    """A contour past MAX_CONTOUR_POINTS (a 10^6-point one kept the planner busy for minutes)
+    is refused in the time of a check; the planner then plans the next command as usual."""
+    from hex_control.nodes.interfaces import MAX_CONTOUR_POINTS
+
+    publishers, outputs = planner
+    n = 2 * MAX_CONTOUR_POINTS
+    huge = ContourMsg(job_id="job-a", pass_index=0, bead_width_mm=12.5, x_mm=np.linspace(0.0, 60.0, n).tolist(),
+                      z_mm=[0.5] * n, parent_mm=[0.0] * n)
+    publishers["contour"].publish(huge)
+    publishers["command"].publish(_command())
+    result = wait_until(lambda: outputs["result"][-1] if outputs["result"] else None, 30.0, what="a refusal")
+    assert result.status == PassResult.REJECTED and f"exceed the limit of {MAX_CONTOUR_POINTS}" in result.reason
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 1, 12.5))
+    publishers["command"].publish(_command(pass_index=1))
+    trajectory = wait_until(lambda: outputs["trajectory"], 30.0, what="the next pass's force trajectory")
+    assert trajectory[-1].pass_index == 1
+
+
 def test_a_waiting_command_is_never_dropped_silently(planner):
     """Issue 21 item 5: a newer command used to replace one waiting for its contour, which
     then got no status and no result. Each command now ends exactly once: the older of two

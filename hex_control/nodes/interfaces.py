@@ -33,6 +33,10 @@ RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durabilit
 TELEMETRY = RESULTS  # the plant's batched state: a late observer gets the last second and where it holds
 STREAM = 100
 MAX_PATH_SAMPLES = 200_000
+#: a contour's points and length, at most: planning a pass costs time in proportion to the
+#: length (1.5-4 s for 300 mm), and a 10^6-point contour kept the pass planner busy for minutes
+MAX_CONTOUR_POINTS = 100_000
+MAX_CONTOUR_LENGTH_MM = 2_000.0
 PATH_FIELDS = ("x_mm", "y_mm", "z_mm", "roll_rad", "pitch_rad", "yaw_rad")
 
 
@@ -49,6 +53,12 @@ def time_msg(seconds: float) -> TimeMsg:
 
 
 def contour_from_message(msg: ContourMsg) -> Contour:
+    """The contour; ValueError if malformed or beyond MAX_CONTOUR_POINTS or MAX_CONTOUR_LENGTH_MM."""
+    if len(msg.x_mm) > MAX_CONTOUR_POINTS:
+        raise ValueError(f"{len(msg.x_mm)} points exceed the limit of {MAX_CONTOUR_POINTS}")
+    if len(msg.x_mm) >= 2 and not abs(msg.x_mm[-1] - msg.x_mm[0]) <= MAX_CONTOUR_LENGTH_MM:
+        raise ValueError(f"a length of {msg.x_mm[-1] - msg.x_mm[0]:g} mm exceeds the limit of "
+                         f"{MAX_CONTOUR_LENGTH_MM:g} mm")
     parent = list(msg.parent_mm) or None
     return Contour(np.asarray(msg.x_mm, float), np.asarray(msg.z_mm, float),
                    None if parent is None else np.asarray(parent, float))

@@ -52,6 +52,7 @@ from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKin
 
 MAX_POSES = 100_000  # per request
 MAX_SECTORS = 50_000
+MAX_SLICES = 100  # slice heights per workspace request: about 30 ms each here
 Code = KinematicsErrorCode
 
 
@@ -142,7 +143,7 @@ class KinematicsCore:
         sectors = request.sector_count or 1250
         eps = request.resolution_mm or 1.0
         if (not np.all(np.isfinite(orientation)) or not np.all(np.isfinite(heights)) or sectors > MAX_SECTORS
-                or sectors < 18 or not (0.01 <= eps <= 100.0) or np.any(np.abs(orientation) > math.pi)):
+                or heights.size > MAX_SLICES or sectors < 18 or not (0.01 <= eps <= 100.0) or np.any(np.abs(orientation) > math.pi)):
             response.error_code.val = Code.INVALID_INPUT
             return response
         n_phi = max(3, round(math.sqrt(sectors / 2)))

@@ -102,8 +102,9 @@ from hex_control.grinding.variation import ProcessVariation
 from hex_control.kinematics import Pru3Geometry, load_machine
 from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, RESULTS, STREAM, TELEMETRY, contour_to_message,
-                                          part_quality_message, stamp_s, strut_trajectory_from_message, time_msg)
+from hex_control.nodes.interfaces import (LATCHED, MAX_CONTOUR_LENGTH_MM, RESULTS, STREAM, TELEMETRY,
+                                          contour_to_message, part_quality_message, stamp_s,
+                                          strut_trajectory_from_message, time_msg)
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
@@ -186,7 +187,7 @@ PARAMETERS = {
                          "machine YAML (config/machines/); must match the kinematics node's"),
     "pass_planner_config": Spec("pass_planner.yaml", "nominal process, disk and bead frame of the workpiece"),
     "bead_file": Spec("", "bead CSV x_mm,z_mm[,parent_mm]; '' = a generated bead"),
-    "bead_length_mm": Spec(300.0, "length of a generated bead", 1.0, 10_000.0),
+    "bead_length_mm": Spec(300.0, "length of a generated bead", 1.0, MAX_CONTOUR_LENGTH_MM),
     "bead_height_mm": Spec(1.0, "height of a generated bead", 0.0, 50.0),
     "bead_end_ramp_mm": Spec(12.0, "length of a generated bead's end ramps", 0.0, 1000.0),
     "bead_ripple_mm": Spec(0.05, "ripple amplitude of a generated bead", 0.0, 10.0),
