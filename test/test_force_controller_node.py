@@ -22,26 +22,43 @@ class LockStepTablePlant:
 
     PERIOD_NS = 5_000_000  # whole nanoseconds: a float stamp 1 ns short of a period fires no timer
 
-    def __init__(self, ros, setpoint_at, silent_from_s=math.inf):
+    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf):
         self.table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=0.0), step_s=0.001)
         self.table.reset(-2.0)
-        self.setpoint_at, self.silent_from_s = setpoint_at, silent_from_s
+        self.setpoint_at, self.silent_from_s, self.restart_at_s = setpoint_at, silent_from_s, restart_at_s
+        self.timeline = 0  # restarts so far: each one starts sim time from zero again
         self.time_ns = 0
         self.nan_sent = False
-        self.history = []  # (sim time s, command mm, force N) after each step
+        self.history = []  # (sim time s, command mm, force N) after each step of the current timeline
         self.node = ros.node("table_plant")
         self.wrenches = self.node.create_publisher(WrenchStamped, "/plant/wrench", 100)
         self.setpoints = self.node.create_publisher(Float64, "/force_controller/setpoint", 100)
         self.clock = self.node.create_publisher(Clock, "/clock", 100)
         self.node.create_subscription(Float64, "/plant/force_axis_command", self.on_command, 100)
-        # liveness only: the first tick may go out before the controller's /clock has matched
-        self.node.create_timer(0.5, lambda: None if self.history else self.publish())
+        # as the real plant does: a state unanswered for 0.5 s of wall time is sent again (the
+        # first may go out before the controller has matched; a restarted clock is confirmed so),
+        # or, with ``advance_unanswered``, the plant steps on with the last command (a timer on a
+        # sim clock that went back waits for the clock to pass its next period)
+        self.answered, self.advance_unanswered, self.last_command = False, False, None
+        self.node.create_timer(0.5, self._unanswered)
+
+    def _unanswered(self) -> None:
+        if not self.answered:
+            if self.advance_unanswered and self.last_command is not None:
+                self.on_command(self.last_command)
+            else:
+                self.publish()
 
     def on_command(self, msg: Float64) -> None:
+        self.answered, self.last_command = True, msg
         for _ in range(5):
             self.table.step(msg.data)
         self.time_ns += self.PERIOD_NS
         self.history.append((self.time_s, msg.data, self.table.force_n))
+        if self.time_s >= self.restart_at_s:  # the plant restarts: a fresh table, sim time from 0
+            self.table.reset(-2.0)
+            self.time_ns, self.history, self.restart_at_s = -self.PERIOD_NS, [], math.inf
+            self.timeline += 1
         self.publish()
 
     @property
@@ -62,18 +79,20 @@ class LockStepTablePlant:
         if setpoint is not None:
             self.setpoints.publish(Float64(data=setpoint))
         self.clock.publish(Clock(clock=stamp))
+        self.answered = False
 
-    def run_until(self, time_s: float) -> None:
-        wait_until(lambda: self.time_s >= time_s, 120.0, what=f"sim time {time_s} s")
+    def run_until(self, time_s: float, timeline: int = 0) -> None:
+        wait_until(lambda: self.timeline == timeline and self.time_s >= time_s, 120.0,
+                   what=f"sim time {time_s} s of timeline {timeline}")
 
     def at(self, time_s: float):
         """(command mm, force N) at the first step at or after ``time_s``."""
         return next((command, force) for t, command, force in self.history if t >= time_s)
 
 
-def start_loop(ros, plant):
+def start_loop(ros, plant, trigger="timer"):
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
-        Parameter("use_sim_time", value=True),
+        Parameter("use_sim_time", value=True), Parameter("trigger", value=trigger),
         Parameter("kp_mm_per_n", value=0.0098), Parameter("ki_mm_per_n_s", value=0.48)]))  # ITAE-tuned
     for topic in ("/plant/wrench", "/force_controller/setpoint", "/clock"):
         ros.wait_for_match(plant.node, topic, subscribers=1)
@@ -104,6 +123,41 @@ def test_stale_measurement_trips_and_nan_is_rejected(ros):
     assert plant.at(2.2)[0] == -2.0  # stale after 0.1 s, ramped to retracted over 0.5 s
     assert controller.diagnostics.counters["watchdog_trips"] == 1
     assert controller.diagnostics.counters["rejected_measurement"] == 1
+
+
+@pytest.mark.parametrize("trigger", ["timer", "measurement"])
+def test_a_restarted_plant_is_followed_on_its_new_clock(ros, trigger):
+    """The plant restarts at 2 s: sim time from 0 again, a fresh table. The controller notes
+    the jump once, retracts, and tracks again on the new clock (timer: rcl re-times the
+    timer; measurement: the plant's re-sent first state confirms the new timeline)."""
+    plant = LockStepTablePlant(ros, lambda t: 20.0, restart_at_s=2.0)
+    plant.advance_unanswered = trigger == "timer"
+    controller = start_loop(ros, plant, trigger)
+    plant.run_until(2.0, timeline=1)
+    assert plant.at(2.0)[1] == pytest.approx(20.0, abs=1.0)
+    counters = controller.diagnostics.counters
+    assert counters["clock_jumps"] == 1
+    assert counters.get("rejected_stamp", 0) == (1 if trigger == "measurement" else 0)
+
+
+def test_a_stray_stamp_changes_nothing(ros):
+    """One wrench stamped 2^31 - 1 s (and one before the plant's time) amid a lock-step loop:
+    refused and counted, no jump, and the loop goes on answering."""
+    plant = LockStepTablePlant(ros, lambda t: 20.0)
+    controller = start_loop(ros, plant, "measurement")
+    plant.run_until(1.0)
+    node = ros.node("stray")
+    stray = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
+    ros.wait_for_match(node, "/plant/wrench", subscribers=1)
+    for sec in (2**31 - 1, 0):
+        wrench = WrenchStamped()
+        wrench.header.stamp.sec = sec
+        stray.publish(wrench)
+    wait_until(lambda: controller.diagnostics.counters.get("rejected_stamp", 0) >= 2, 10.0, what="the strays")
+    reached = plant.time_s
+    plant.run_until(reached + 1.0)
+    assert plant.at(reached + 1.0)[1] == pytest.approx(20.0, abs=1.0)
+    assert controller.diagnostics.counters.get("clock_jumps", 0) == 0
 
 
 def test_negative_stamps_are_refused_not_a_crash(ros):

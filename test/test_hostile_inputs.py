@@ -41,9 +41,9 @@ def field_strategy(kind: str):
     if kind.startswith("sequence<"):
         inner = kind[len("sequence<"):-1].split(",")[0]
         return st.lists(field_strategy(inner), max_size=30)
-    if kind == "builtin_interfaces/Time":  # stamps in any order, also in the past and the far future
+    if kind == "builtin_interfaces/Time":  # stamps in any order: before the epoch, in the past, far ahead
         return st.builds(lambda s, n: message_class("builtin_interfaces/msg/Time")(sec=s, nanosec=n),
-                         st.integers(0, 2**31 - 1), st.integers(0, 999_999_999))
+                         st.integers(-2**31, 2**31 - 1), st.integers(0, 999_999_999))
     return message_strategy(message_class(kind))
 
 

@@ -30,6 +30,11 @@ Watchdog: when the setpoint or the measurement is older than its timeout, the co
 ramps to ``output_min_mm`` (retracted: no force) over ``ramp_down_s`` and a WARN is
 reported; the loop restarts bumplessly when both are fresh again. Non-finite inputs are
 rejected and counted; the command is always clamped to [output_min_mm, output_max_mm].
+
+Clock jumps (:mod:`hex_control.control.stamp_guard`): with ``trigger`` measurement, a wrench
+stamped off the plant's timeline is refused (``rejected_stamp``) unless the next confirms a
+new timeline; backwards (a restarted plant), or a sim clock that goes back under the timer,
+drops the force trajectory and retracts (``clock_jumps``, WARN) until the next pass.
 """
 
 from __future__ import annotations
@@ -39,12 +44,15 @@ import math
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from geometry_msgs.msg import WrenchStamped
+from rclpy.clock import JumpThreshold
+from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.time import Time
 from std_msgs.msg import Float64
 
 from hex_control.control.force_law import ROLL_OFFS, EnergyForceLaw, PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
+from hex_control.control.stamp_guard import Stamp, StampGuard
 from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED
@@ -89,6 +97,8 @@ PARAMETERS = {
     "touch_speed_mm_s": Spec(10.0, "touch-down: approach speed", 0.01, 1000.0),
     "touch_settle_s": Spec(0.1, "touch-down: time at the stand-off before the pass starts", 0.0, 10.0),
     "touch_felt_n": Spec(2.0, "touch-down: a force above this stops the approach (early contact)", 0.0, 1000.0),
+    "max_stamp_step_s": Spec(1.0, "trigger measurement: a wrench stamped further than this from the last "
+                             "(backwards or ahead) is a clock jump only once the next confirms it", 0.001, 3600.0),
 }
 
 
@@ -121,6 +131,7 @@ class ForceControllerNode(Node):
         self.measured_time = None
         self.feed_forward_n = 0.0
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
+        self.stamps = StampGuard(round(p("max_stamp_step_s") * 1e9))
         self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         # latched: a controller that matches the pass planner late still gets the pass it must run
@@ -131,6 +142,10 @@ class ForceControllerNode(Node):
         self.measurement_triggered = p("trigger") == "measurement"
         if not self.measurement_triggered:
             self.create_timer(self.period_s, lambda: self._tick(self.get_clock().now()))
+            # a sim clock that goes back (a restarted plant): rcl re-times the timer itself
+            self._jump_handler = self.get_clock().create_jump_callback(
+                JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
+                post_callback=lambda jump: self._clock_jumped(jump.delta.nanoseconds * 1e-9))
 
     # -- inputs ----------------------------------------------------------------------------
     def _reject(self, what: str) -> None:
@@ -145,7 +160,7 @@ class ForceControllerNode(Node):
             return
         self.trajectory = (Time.from_msg(msg.header.stamp), t, f)
         self.direct_setpoint = None
-        self.setpoint_time = self.get_clock().now()
+        self.setpoint_time = self._now()
         self.status_publisher.publish(DiagnosticStatus(
             level=DiagnosticStatus.OK, name=self.get_fully_qualified_name(), message="trajectory",
             values=[KeyValue(key="job_id", value=msg.job_id), KeyValue(key="pass_index", value=str(msg.pass_index))]))
@@ -155,7 +170,7 @@ class ForceControllerNode(Node):
             self._reject("setpoint")
             return
         self.direct_setpoint, self.trajectory = msg.data, None
-        self.setpoint_time = self.get_clock().now()
+        self.setpoint_time = self._now()
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
         if not math.isfinite(msg.wrench.force.z) or msg.header.stamp.sec < 0:  # Time.from_msg raises on sec < 0
@@ -163,12 +178,32 @@ class ForceControllerNode(Node):
             return
         if self.measurement_triggered:
             stamp = Time.from_msg(msg.header.stamp, clock_type=self.get_clock().clock_type)
-            if self.measured_time is not None and stamp <= self.measured_time:
-                return  # a repeat of a measurement already answered (the plant re-sends until answered)
+            verdict = self.stamps.check(stamp.nanoseconds)
+            if verdict is Stamp.REPEAT:
+                return  # already answered (the plant re-sends until answered)
+            if verdict is Stamp.REFUSED:
+                self._reject("stamp")
+                return
+            if verdict is Stamp.JUMPED:
+                self._clock_jumped(self.stamps.jump_ns * 1e-9)
             self.measured_n, self.measured_time = msg.wrench.force.z, stamp
             self._tick(stamp)
         else:
             self.measured_n, self.measured_time = msg.wrench.force.z, self.get_clock().now()
+
+    def _clock_jumped(self, jump_s: float) -> None:
+        """The plant's clock jumped (restarted, when backwards): a trajectory and the times
+        held are of the old timeline, so they go and the loop retracts until the next pass."""
+        self.diagnostics.count("clock_jumps")
+        if jump_s > 0:  # later, on the same timeline: the trajectory still holds
+            self.get_logger().warning(f"measurement stamps leapt {jump_s:+.3f} s")
+            return
+        self.trajectory = self.direct_setpoint = self.setpoint_time = self.measured_time = None
+        if not self.tripped:
+            self.tripped = True
+            self.diagnostics.count("watchdog_trips")
+        self.diagnostics.warn(f"clock jumped {jump_s:+.3f} s: force trajectory dropped, retracting")
+        self.get_logger().warning(f"clock jumped {jump_s:+.3f} s: force trajectory dropped, retracting")
 
     def _on_prediction(self, msg: LoadPrediction) -> None:
         if math.isfinite(msg.prediction) and math.isfinite(msg.mean):
@@ -177,6 +212,11 @@ class ForceControllerNode(Node):
             self._reject("prediction")
 
     # -- loop ------------------------------------------------------------------------------
+    def _now(self) -> Time | None:
+        """The loop's time: the latest measurement's stamp when measurements trigger it (the
+        plant's clock, whatever this node's says), else the node clock."""
+        return self.measured_time if self.measurement_triggered else self.get_clock().now()
+
     def _elapsed_s(self, now) -> float | None:
         """Time into the held force trajectory (negative before its start), None without one."""
         if self.direct_setpoint is not None or self.trajectory is None:
@@ -193,7 +233,7 @@ class ForceControllerNode(Node):
         return float(np.interp(elapsed, t, f))
 
     def _stale(self, stamp, timeout: float, now) -> bool:
-        return stamp is None or (now - stamp).nanoseconds * 1e-9 > timeout
+        return stamp is None or not 0 <= (now - stamp).nanoseconds * 1e-9 <= timeout
 
     def _tick(self, now: Time) -> None:
         elapsed = self._elapsed_s(now)
