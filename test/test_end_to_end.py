@@ -111,6 +111,23 @@ def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
     assert_contact_when_planned(session.record)
 
 
+def test_a_plant_restarted_mid_job_does_not_deadlock_the_lockstep_graph(ros_env, tmp_path):
+    """The plant is killed while pass 1 is announced and started again: its clock starts from
+    zero (a jump back of the whole graph's time) on a fresh workpiece. The force controller
+    sees the jump once, drops the old timeline's trajectory and follows the new clock; the
+    job goes on to an end the policy chooses (before the fix the lock-step graph deadlocked)."""
+    with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
+        session.start_job(30.0, RESET_TIME_S)
+        session.spin_until(lambda: 1 in session.record.trajectories, 300.0, "pass 1's force trajectory")
+        session.graph.kill("plant")
+        session.graph.start("plant")
+        outcome = session.wait_for_outcome(400.0)
+        controller_log = session.graph.log_tail("force_controller", 200)
+    assert outcome["reason"] in ("done", "quit"), outcome
+    assert controller_log.count("clock jumped") == 1, controller_log
+    assert session.record.results[0]["status"] == "completed"
+
+
 def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros_env, tmp_path):
     with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
         session.start_job(30.0, RESET_TIME_S)
