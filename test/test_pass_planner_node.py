@@ -4,7 +4,6 @@ tool path out; refused commands give a reason and nothing else."""
 import dataclasses
 import math
 import re
-import time
 
 import numpy as np
 import pytest
