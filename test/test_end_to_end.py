@@ -93,15 +93,21 @@ def test_a_job_on_the_3pru_head_ends_as_the_policy_intends(ros_env, tmp_path):
     assert_contact_when_planned(session.record)
 
 
+def restart_mid_job(session, deadline_s: float, node: str, when, what: str) -> dict:
+    """Start a job, kill ``node`` once ``when()`` holds and start it again; the job's outcome."""
+    session.start_job(deadline_s, RESET_TIME_S)
+    session.spin_until(when, 300.0, what)
+    session.graph.kill(node)
+    session.graph.start(node)
+    return session.wait_for_outcome(400.0)
+
+
 def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
     """On the hexapod: the planner is killed after pass 0 and restarted; the job goes on
     from its log and every pass still cuts what was planned."""
     with JobSession(tmp_path, seed=4, plant_overrides=STEADY) as session:
-        session.start_job(22.0, RESET_TIME_S)
-        session.spin_until(lambda: 0 in session.record.results, 300.0, "the first pass")
-        session.graph.kill("sequence_planner")
-        session.graph.start("sequence_planner")
-        outcome = session.wait_for_outcome(400.0)
+        outcome = restart_mid_job(session, 22.0, "sequence_planner", lambda: 0 in session.record.results,
+                                  "the first pass")
         restarted_log = session.graph.log_tail("sequence_planner", 200)
         logs = {name: session.graph.log_tail(name, 15) for name in ("plant", "pass_planner", "force_controller")}
     assert "resumed job" in restarted_log
@@ -117,11 +123,8 @@ def test_a_plant_restarted_mid_job_does_not_deadlock_the_lockstep_graph(ros_env,
     sees the jump once, drops the old timeline's trajectory and follows the new clock; the
     job goes on to an end the policy chooses (before the fix the lock-step graph deadlocked)."""
     with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
-        session.start_job(30.0, RESET_TIME_S)
-        session.spin_until(lambda: 1 in session.record.trajectories, 300.0, "pass 1's force trajectory")
-        session.graph.kill("plant")
-        session.graph.start("plant")
-        outcome = session.wait_for_outcome(400.0)
+        outcome = restart_mid_job(session, 30.0, "plant", lambda: 1 in session.record.trajectories,
+                                  "pass 1's force trajectory")
         controller_log = session.graph.log_tail("force_controller", 200)
     assert outcome["reason"] in ("done", "quit"), outcome
     assert controller_log.count("clock jumped") == 1, controller_log

@@ -142,8 +142,9 @@ class KinematicsCore:
         heights = np.asarray(request.slice_heights_mm, float)
         sectors = request.sector_count or 1250
         eps = request.resolution_mm or 1.0
-        if (not np.all(np.isfinite(orientation)) or not np.all(np.isfinite(heights)) or sectors > MAX_SECTORS
-                or heights.size > MAX_SLICES or sectors < 18 or not (0.01 <= eps <= 100.0) or np.any(np.abs(orientation) > math.pi)):
+        if (not np.all(np.isfinite(orientation)) or not np.all(np.isfinite(heights)) or heights.size > MAX_SLICES
+                or not 18 <= sectors <= MAX_SECTORS or not (0.01 <= eps <= 100.0)
+                or np.any(np.abs(orientation) > math.pi)):
             response.error_code.val = Code.INVALID_INPUT
             return response
         n_phi = max(3, round(math.sqrt(sectors / 2)))
@@ -166,6 +167,7 @@ class KinematicsCore:
                                    for z in heights]
         response.error_code.val = Code.SUCCESS
         return response
+
 
 PARAMETERS = {
     "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")), "machine YAML (config/machines/)"),

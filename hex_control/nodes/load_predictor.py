@@ -42,18 +42,18 @@ _MIN_IDENTIFICATION_SAMPLES = 50
 _MODEL_PARAMETERS = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
 
 
-LIVE = dict(read_only=False)  # the model's values: set live (or by the online identification)
+# the model's values are set live (or by the online identification); the rest at start-up
 PARAMETERS = {
     "input_topic": Spec("load", "topic of the measured load"),
     "input_type": Spec("std_msgs/msg/Float64", "message type of input_topic"),
     "input_field": Spec("data", "dotted path of the numeric load field, e.g. wrench.force.z"),
     "quantity": Spec("load", "name and unit of the predicted quantity, e.g. normal_force_n"),
-    "a": Spec(0.9, "Gauss-Markov coefficient a (eq. 6.2)", -0.9999, 0.9999, **LIVE),
-    "process_variance": Spec(1.0, "W, variance of w(t) (load unit^2)", 0.0, 1e12, **LIVE),
-    "measurement_variance": Spec(1.0, "V, variance of v(t) (load unit^2)", 0.0, 1e12, **LIVE),
+    "a": Spec(0.9, "Gauss-Markov coefficient a (eq. 6.2)", -0.9999, 0.9999, read_only=False),
+    "process_variance": Spec(1.0, "W, variance of w(t) (load unit^2)", 0.0, 1e12, read_only=False),
+    "measurement_variance": Spec(1.0, "V, variance of v(t) (load unit^2)", 0.0, 1e12, read_only=False),
     "initial_variance": Spec(-1.0, "P(0) = sigma(0) (load unit^2); < 0 = stationary W/(1-a^2)", -1e12, 1e12,
-                             **LIVE),
-    "mean": Spec(0.0, "mean load L_bar subtracted before filtering (load unit)", -1e12, 1e12, **LIVE),
+                             read_only=False),
+    "mean": Spec(0.0, "mean load L_bar subtracted before filtering (load unit)", -1e12, 1e12, read_only=False),
     "identify_window": Spec(0, "identify a, W, V, mean online over the last N samples; 0 = off", 0, 1_000_000),
     "identify_every": Spec(0, "samples between identifications; 0 = window/4", 0, 1_000_000),
     "drift_rate_variance": Spec(0.0, "variance of the drift's change per sample (load unit^2 per sample^2); "
