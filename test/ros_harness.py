@@ -24,12 +24,19 @@ from rclpy.qos import QoSProfile
 
 from hex_control.nodes.graph import stop_hung
 
-#: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively
-_DOMAIN_FIRST, _DOMAIN_COUNT = 100, 130
+#: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively, and of
+#: 200..232, where the loop benchmark (hex_control/bench/loop.py) starts its own
+_DOMAIN_FIRST, _DOMAIN_COUNT = 100, 100
 
 
 def run_domain_id() -> int:
-    """A domain id for this test run: fixed by the environment, else from the process id."""
+    """A domain id for this test run: fixed by the environment, else from the process id;
+    under pytest-xdist one per worker, next to each other (from the controller's id)."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    if worker.startswith("gw"):
+        workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+        first = int(os.environ.get("HEX_TEST_DOMAIN_ID", _DOMAIN_FIRST + os.getppid() % (_DOMAIN_COUNT - workers)))
+        return first + int(worker[2:])
     return int(os.environ.get("HEX_TEST_DOMAIN_ID", _DOMAIN_FIRST + os.getpid() % _DOMAIN_COUNT))
 
 

@@ -201,3 +201,16 @@ def test_a_terminated_demo_stops_its_graph(ros_env, tmp_path):
         demo.kill()
         for pid in _processes_writing_to(tmp_path / "logs"):
             os.kill(pid, signal.SIGKILL)
+
+
+def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tmp_path):
+    """The same restart with the plant in real time (at twice the wall clock): the clock
+    jumps back while pass 1 is announced; the job continues or aborts by the policy, it does
+    not wait forever, and the force controller notes the jump once."""
+    with JobSession(tmp_path, seed=5, mode="realtime", real_time_factor=2.0, plant_overrides=BEAD) as session:
+        outcome = restart_mid_job(session, 30.0, "plant", lambda: 1 in session.record.trajectories,
+                                  "pass 1's force trajectory")
+        controller_log = session.graph.log_tail("force_controller", 200)
+    assert outcome["reason"] in ("done", "quit", "aborted"), outcome
+    assert controller_log.count("clock jumped") == 1, controller_log
+    assert session.record.results[0]["status"] == "completed"

@@ -22,10 +22,11 @@ class LockStepTablePlant:
 
     PERIOD_NS = 5_000_000  # whole nanoseconds: a float stamp 1 ns short of a period fires no timer
 
-    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf):
+    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf, hold_at_s=math.inf):
         self.table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=0.0), step_s=0.001)
         self.table.reset(-2.0)
         self.setpoint_at, self.silent_from_s, self.restart_at_s = setpoint_at, silent_from_s, restart_at_s
+        self.hold_at_s = hold_at_s  # the loop stands still there (nothing sent) until resume()
         self.timeline = 0  # restarts so far: each one starts sim time from zero again
         self.time_ns = 0
         self.nan_sent = False
@@ -59,6 +60,11 @@ class LockStepTablePlant:
             self.table.reset(-2.0)
             self.time_ns, self.history, self.restart_at_s = -self.PERIOD_NS, [], math.inf
             self.timeline += 1
+        if self.time_s < self.hold_at_s - 1e-9:
+            self.publish()
+
+    def resume(self, hold_at_s=math.inf) -> None:
+        self.hold_at_s = hold_at_s
         self.publish()
 
     @property
@@ -113,6 +119,39 @@ def test_tracks_a_force_step_then_the_watchdog_retracts(ros):
     assert plant.at(4.1) == (-2.0, 0.0)  # retracted 0.5 s + 0.5 s after the last setpoint
     assert controller.diagnostics.counters["watchdog_trips"] == 1
     assert plant.at(7.5)[1] == pytest.approx(10.0, abs=1.0)  # fresh again
+    assert controller.diagnostics.summary()[1] == "tracking"  # the watchdog's WARN cleared
+
+
+def test_a_saturated_command_warns_until_it_comes_off_the_limit(ros):
+    """Issue 21 items 8-9: with the work out of reach the README's recipe measured 0 N, the
+    command pinned at +2 mm, and the controller said OK. Now a command held at a limit for
+    saturation_warn_s (1 s) while tracking is a WARN that clears when the work is reached."""
+    from hex_control.nodes.diagnostics import OK, WARN
+
+    plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.5)
+    plant.table.surface_mm = 5.0  # beyond the controller's +2 mm
+    controller = start_loop(ros, plant)
+    plant.run_until(1.5)
+    level, message = controller.diagnostics.summary()
+    assert level == WARN and "saturated at +2.00 mm" in message and "measured 0.0 N" in message, message
+    assert controller.diagnostics.counters["saturations"] == 1
+    plant.table.surface_mm = None  # the work within reach again: contact at 0 mm
+    plant.resume(hold_at_s=3.0)
+    plant.run_until(3.0)
+    assert plant.at(3.0)[1] == pytest.approx(20.0, abs=1.0)
+    assert controller.diagnostics.summary() == (OK, "tracking")
+    assert controller.diagnostics.counters["saturations"] == 1
+
+
+def test_the_desired_force_is_limited_to_f_max(ros):
+    """Issue 21: the force controller clamps its desired force to F_max (max_force_n, 60 N):
+    a 100 N setpoint is held at 60 N, counted."""
+    plant = LockStepTablePlant(ros, lambda t: 100.0)
+    controller = start_loop(ros, plant)
+    plant.run_until(1.5)
+    assert plant.at(1.5)[1] == pytest.approx(60.0, abs=1.5)
+    assert max(force for _, _, force in plant.history) < 75.0
+    assert controller.diagnostics.counters["clamped_setpoints"] > 0
 
 
 def test_stale_measurement_trips_and_nan_is_rejected(ros):

@@ -119,14 +119,19 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         while time.monotonic() < end:
             session.executor.spin_once(timeout_sec=0.05)
         assert session.graph.dead() == {}, {n: session.graph.log_tail(n) for n in session.graph.dead()}
-    rejected = {name: {k: int(v) for k, v in values.items() if k.startswith(("rejected", "ignored"))}
+    rejected = {name: {k: int(v) for k, v in values.items() if k.startswith(("rejected", "ignored", "foreign"))}
                 for name, values in diagnostics.items()}
     # with no job running, the sequence planner ignores (and counts) every result: none is its job's
     expected = {"/force_controller": "rejected_trajectory", "/pass_planner": "rejected_unplannable",
-                "/sequence_planner": "ignored_results", "/kinematics": "rejected_paths", "/plant": "rejected_strut_command",
+                "/sequence_planner": "ignored_results", "/kinematics": "rejected_paths", "/plant": None,
                 "/input_shaper": "rejected_paths", "/load_predictor/pass": None}
     for name, key in expected.items():
         assert name in rejected, f"{name} published no diagnostics"
         counts = rejected[name]
         assert (counts.get(key, 0) if key else sum(counts.values())) > 0, f"{name}: {counts}"
-    assert rejected["/plant"].get("rejected_strut_trajectory", 0) > 0, rejected["/plant"]
+    # the plant's inputs: refused as invalid, or before that as not their owner's (the force
+    # controller's and the kinematics node's, if it spoke first); the trajectory input is the fuzzer's
+    plant = rejected["/plant"]
+    assert plant.get("foreign_force_command", 0) > 0, plant
+    assert plant.get("rejected_strut_command", 0) + plant.get("foreign_strut_command", 0) > 0, plant
+    assert plant.get("rejected_strut_trajectory", 0) > 0, plant

@@ -77,6 +77,21 @@ def test_node_predicts_exactly_like_the_library_and_counts_rejections(ros):
     assert counts["rejected_out_of_range"] == "1"
 
 
+def test_messages_lost_under_a_flood_are_counted(ros):
+    """Issue 21 item 8: a flood overflows the history (qos_depth 1) unseen. The gaps in the
+    publisher's sequence numbers count what never arrived: every sample is seen or lost."""
+    node = start_predictor(ros, "/t9", qos_depth=1)
+    publisher, _, _ = wired_source(ros, "/t9", Float64)
+    counters = node.diagnostics.counters
+    publisher.publish(Float64(data=1.0))  # the first heard is the baseline
+    wait_until(lambda: counters["samples"] == 1, 10.0, what="the first sample")
+    for _ in range(2000):
+        publisher.publish(Float64(data=1.0))
+    wait_until(lambda: counters["samples"] + counters["lost_measurements"] == 2001, 20.0,
+               what=f"every sample seen or lost ({counters})")
+    assert counters["lost_measurements"] > 0
+
+
 def test_parameters_are_validated_and_applied(ros):
     node = start_predictor(ros, "/t2")
     for bad in (Parameter("a", value=1.5), Parameter("measurement_variance", value=-1.0),

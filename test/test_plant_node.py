@@ -98,7 +98,8 @@ def test_watchdog_retracts_on_sim_time_when_the_setpoint_ends(ros, spawn):
 def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn):
     """machine_file pru3 in both nodes: a tool setpoint (z 215 mm, alpha 0.08, beta -0.05 rad)
     becomes slider commands, and the head's dynamics under its drives carry the sliders
-    there; a command the head cannot reach is refused and counted."""
+    there; a command the head cannot reach (sent once the kinematics node, the struts'
+    owner, has left) is refused and counted."""
     import numpy as np
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import PoseStamped
@@ -109,7 +110,7 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
 
     machine = ["-p", f"machine_file:={config_file('machines/pru3.yaml')}"]
     spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", *machine])
-    spawn(["hex-kinematics", "--ros-args", "-p", "use_sim_time:=true", *machine])
+    kinematics = spawn(["hex-kinematics", "--ros-args", "-p", "use_sim_time:=true", *machine])
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     node = ros.node("pru3_source")
@@ -128,6 +129,9 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
         return states and np.abs(np.array(states[-1].position) - target).max() < 1e-9
     wait_until(settled, 15.0, interval_s=0.05, what="the sliders to settle on the setpoint")
     assert list(states[-1].name) == ["strut_0", "strut_1", "strut_2"]
+    kinematics.stop()  # the struts' owner leaves the graph: the next publisher takes over
+    wait_until(lambda: commands.get_subscription_count() >= 1 and len(node.get_publishers_info_by_topic(
+        "/plant/strut_command")) == 1, 15.0, what="the kinematics node to leave")
     commands.publish(JointState(name=["strut_0", "strut_1", "strut_2"], position=[0.0, 0.1, 0.1]))
 
     wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0,
@@ -210,3 +214,44 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     struts.publish(JointState(name=names, position=[50.0] * 6))
     wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0, what="the refusal")
     assert states[-1].position == pytest.approx([2.6] * 6, abs=1e-6)
+
+
+def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn):
+    """Issue 21 item 3, command ownership: the force axis obeys the configured node
+    (/operator) only, even when a rogue publishes first; the struts obey the first node heard.
+    A rogue's commands are refused and counted, and change nothing."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from std_msgs.msg import Float64
+
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0",
+           "-p", "force_command_owner:=/operator"])
+    forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
+    states = ros.collect(JointState, "/plant/strut_states", KEEP)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    operator, rogue = ros.node("operator"), ros.node("rogue")
+    publishers = {(who, topic): who.create_publisher(msg_type, topic, 10) for who in (operator, rogue)
+                  for topic, msg_type in (("/plant/force_axis_command", Float64), ("/plant/strut_command", JointState))}
+    wait_until(lambda: all(p.get_subscription_count() >= 1 for p in publishers.values()), 15.0, what="the plant")
+    names = [f"strut_{i}" for i in range(6)]
+
+    def command(who, topic, msg, counter=None, until=None):
+        def done():
+            publishers[who, topic].publish(msg)
+            return until() if until else _plant_counter(diagnostics, counter) not in (None, "0")
+        wait_until(done, 10.0, interval_s=0.05, what=f"{topic} from {who.get_name()}")
+
+    command(rogue, "/plant/force_axis_command", Float64(data=0.3), "foreign_force_command")
+    assert max(f.wrench.force.z for f in forces) == 0.0  # refused although first
+    command(operator, "/plant/force_axis_command", Float64(data=0.3), until=lambda: forces[-1].wrench.force.z > 15.0)
+    command(operator, "/plant/strut_command", JointState(name=names, position=[2.6] * 6),
+            until=lambda: states and states[-1].position[0] == pytest.approx(2.6, abs=1e-6))
+
+    refused = int(_plant_counter(diagnostics, "foreign_force_command"))
+    command(rogue, "/plant/force_axis_command", Float64(data=-5.0),
+            until=lambda: int(_plant_counter(diagnostics, "foreign_force_command")) > refused)
+    command(rogue, "/plant/strut_command", JointState(name=names, position=[2.61] * 6), "foreign_strut_command")
+    start = len(forces)
+    wait_until(lambda: len(forces) > start + 100, 10.0, what="0.5 s more of the plant")
+    assert min(f.wrench.force.z for f in forces[start:]) > 15.0  # still pushed as the operator asked
+    assert states[-1].position == pytest.approx([2.6] * 6, abs=1e-6)
+    assert _plant_counter(diagnostics, "rejected_strut_command") is None  # refused as foreign, not as invalid

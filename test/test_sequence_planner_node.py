@@ -195,6 +195,43 @@ def test_cancel_ends_the_job(ros, planner):
     assert outcome.result.reason == GrindBead.Result.CANCELLED and outcome.result.passes == 1
 
 
+def test_a_long_solve_runs_off_the_executor_and_can_be_cancelled(ros, planner):
+    """Issue 21 item 4: the policy of the longest deadline accepted (1800 s) takes about 6 s
+    to solve here, once on the executor thread. It runs beside it now: meanwhile a second
+    goal is refused at once with the reason, and a cancel ends the first goal before its
+    policy exists; the policy, when it comes, is dropped and no pass is commanded."""
+    planner()
+    executor = PassExecutor(ros)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    handle = send(ros, GrindBead.Goal(job_id="long", bead_height_mm=1.0, bead_width_mm=12.5,
+                                      bead_length_mm=300.0, deadline_s=1800.0))
+    second = result_of(send(ros, GrindBead.Goal(job_id="second", bead_height_mm=1.0, bead_width_mm=12.5,
+                                                bead_length_mm=300.0, deadline_s=60.0)))
+    assert second.result.reason == GrindBead.Result.REJECTED and "still solving" in second.result.message
+    cancel = handle.cancel_goal_async()
+    wait_until(cancel.done, 10.0, what="the cancel response")
+    outcome = result_of(handle)
+    assert outcome.status == GoalStatus.STATUS_CANCELED
+    assert outcome.result.reason == GrindBead.Result.CANCELLED and "policy was solved" in outcome.result.message
+    assert planner_count(diagnostics, "solves") == 0  # answered while the solve ran
+    wait_until(lambda: planner_count(diagnostics, "solves") == 1, 120.0, what="the dropped solve to end")
+    assert executor.commanded == []
+
+
+def test_sigint_amid_a_long_solve_exits_at_once(ros, planner):
+    """Issue 21 item 4: SIGINT hung for as long as a computation ran. The solve (about 6 s
+    idle, longer on a loaded machine) runs on a daemon thread: the node exits within 2 s."""
+    process = planner()
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    send(ros, GrindBead.Goal(job_id="long", bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0,
+                             deadline_s=1800.0))
+    process.process.send_signal(signal.SIGINT)
+    start = time.monotonic()
+    assert process.process.wait(timeout=30.0) == 0
+    assert time.monotonic() - start < 2.0
+    assert planner_count(diagnostics, "solves") == 0  # it did not wait for the solve
+
+
 def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path):
     """Resumed from the job log with the goal's own settings and the K1 estimate it had."""
     first = planner()

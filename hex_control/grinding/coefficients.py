@@ -90,8 +90,9 @@ class PassModelUpdate:
         self.process = dataclasses.replace(self.process, specific_energy_j_mm3=specific_energy_j_mm3)
         return abs(specific_energy_j_mm3 / self.solved_with - 1.0) > self.threshold
 
-    def mark_solved(self) -> None:
-        self.solved_with = self.process.specific_energy_j_mm3
+    def mark_solved(self, specific_energy_j_mm3: float | None = None) -> None:
+        """The policy is now solved with this K1 (J/mm^3; the latest estimate if None)."""
+        self.solved_with = self.process.specific_energy_j_mm3 if specific_energy_j_mm3 is None else specific_energy_j_mm3
 
     @property
     def solved_process(self) -> GrindingProcess:

@@ -29,7 +29,9 @@ closes on the work at the pass's first samples instead of travelling the gap und
 Watchdog: when the setpoint or the measurement is older than its timeout, the command
 ramps to ``output_min_mm`` (retracted: no force) over ``ramp_down_s`` and a WARN is
 reported; the loop restarts bumplessly when both are fresh again. Non-finite inputs are
-rejected and counted; the command is always clamped to [output_min_mm, output_max_mm].
+rejected and counted; the desired force is limited to ``max_force_n`` (F_max) and the
+command to [output_min_mm, output_max_mm]. A command held at one of those limits for
+``saturation_warn_s`` while tracking is a WARN (no contact, or work out of reach).
 
 Clock jumps (:mod:`hex_control.control.stamp_guard`): with ``trigger`` measurement, a wrench
 stamped off the plant's timeline is refused (``rejected_stamp``) unless the next confirms a
@@ -56,12 +58,14 @@ from hex_control.control.stamp_guard import Stamp, StampGuard
 from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import ParameterError, declare_parameters
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
 
+CEILING_WARN_S = 5.0  # a desired force above max_force_n keeps the WARN this long (wall s) after the last
 _TABLE = ForceTableParameters()
 
 PARAMETERS = {
@@ -97,6 +101,10 @@ PARAMETERS = {
     "touch_speed_mm_s": Spec(10.0, "touch-down: approach speed", 0.01, 1000.0),
     "touch_settle_s": Spec(0.1, "touch-down: time at the stand-off before the pass starts", 0.0, 10.0),
     "touch_felt_n": Spec(2.0, "touch-down: a force above this stops the approach (early contact)", 0.0, 1000.0),
+    "max_force_n": Spec(60.0, "ceiling of the desired force, F_max of the process (seed 002 sec. 5.1)", 0.0, 1e4,
+                        read_only=False),
+    "saturation_warn_s": Spec(1.0, "a command held at output_min_mm or output_max_mm this long while tracking "
+                              "is reported (WARN) until it comes off the limit", 0.0, 3600.0, read_only=False),
     "max_stamp_step_s": Spec(1.0, "trigger measurement: a wrench stamped further than this from the last "
                              "(backwards or ahead) is a clock jump only once the next confirms it", 0.001, 3600.0),
 }
@@ -131,13 +139,15 @@ class ForceControllerNode(Node):
         self.measured_time = None
         self.feed_forward_n = 0.0
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
+        self.saturated_s = 0.0  # how long the command has been held at a limit while tracking
         self.stamps = StampGuard(round(p("max_stamp_step_s") * 1e9))
         self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         # latched: a controller that matches the pass planner late still gets the pass it must run
         self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
-        self.create_subscription(Float64, "~/setpoint", self._on_setpoint, 10)
-        self.create_subscription(WrenchStamped, "/plant/wrench", self._on_wrench, 100)
+        info_subscription(self, Float64, "~/setpoint", self._on_setpoint, 10, self.diagnostics, "setpoint")
+        info_subscription(self, WrenchStamped, "/plant/wrench", self._on_wrench, 100, self.diagnostics,
+                          "measurement")
         self.create_subscription(LoadPrediction, "/load_predictor/force/prediction", self._on_prediction, 10)
         self.measurement_triggered = p("trigger") == "measurement"
         if not self.measurement_triggered:
@@ -202,7 +212,7 @@ class ForceControllerNode(Node):
         if not self.tripped:
             self.tripped = True
             self.diagnostics.count("watchdog_trips")
-        self.diagnostics.warn(f"clock jumped {jump_s:+.3f} s: force trajectory dropped, retracting")
+        self.diagnostics.fault("clock_jump", f"clock jumped {jump_s:+.3f} s: force trajectory dropped, retracting")
         self.get_logger().warning(f"clock jumped {jump_s:+.3f} s: force trajectory dropped, retracting")
 
     def _on_prediction(self, msg: LoadPrediction) -> None:
@@ -232,6 +242,17 @@ class ForceControllerNode(Node):
         _, t, f = self.trajectory
         return float(np.interp(elapsed, t, f))
 
+    def _limited(self, desired_n: float | None) -> float | None:
+        """The desired force no higher than ``max_force_n`` (F_max): above it the disk burns
+        the work whatever the planner asked (counted, a WARN for a few seconds)."""
+        ceiling = self.get_parameter("max_force_n").value
+        if desired_n is None or desired_n <= ceiling:
+            return desired_n
+        self.diagnostics.count("clamped_setpoints")
+        self.diagnostics.fault("ceiling", f"desired {desired_n:.1f} N limited to max_force_n {ceiling:g} N",
+                               hold_s=CEILING_WARN_S)
+        return ceiling
+
     def _stale(self, stamp, timeout: float, now) -> bool:
         return stamp is None or not 0 <= (now - stamp).nanoseconds * 1e-9 <= timeout
 
@@ -246,22 +267,26 @@ class ForceControllerNode(Node):
             self.law.hold(self.command_mm)
             self.publisher.publish(Float64(data=self.command_mm))
             return
-        desired = self._desired(now)
+        desired = self._limited(self._desired(now))
         fresh_setpoint = desired is not None and (self.trajectory is not None or not self._stale(
             self.setpoint_time, self.get_parameter("setpoint_timeout_s").value, now))
         if fresh_setpoint and fresh_measurement:
             if self.tripped:
                 self.tripped = False
                 self.law.reset(self.command_mm)  # bumpless restart from where the ramp left it
-                self.diagnostics.ok("tracking")
+                self.diagnostics.clear("watchdog")
+                self.diagnostics.clear("clock_jump")
+                self.diagnostics.state = "tracking"
             feed_forward = self.get_parameter("feed_forward_mm_per_n").value * self.feed_forward_n
             command = self.law.command(desired, self.measured_n, feed_forward)
+            self._watch_saturation(command, desired)
         else:
             if not self.tripped:  # was tracking: a real watchdog trip
                 self.tripped = True
                 self.diagnostics.count("watchdog_trips")
                 reason = "setpoint" if not fresh_setpoint else "measurement"
-                self.diagnostics.warn(f"watchdog: stale {reason}, retracting")
+                self.diagnostics.fault("watchdog", f"watchdog: stale {reason}, retracting")
+                self.saturated_s = 0.0
                 self.get_logger().warning(f"watchdog: stale {reason}, ramping the force to zero")
             span = self.limits[1] - self.limits[0]
             step = span * self.period_s / self.get_parameter("ramp_down_s").value
@@ -269,6 +294,22 @@ class ForceControllerNode(Node):
             self.law.hold(command)
         self.command_mm = min(max(command, self.limits[0]), self.limits[1])
         self.publisher.publish(Float64(data=self.command_mm))
+
+    def _watch_saturation(self, command_mm: float, desired_n: float) -> None:
+        """A command held at a limit for ``saturation_warn_s`` while tracking is a fault (no
+        contact, or the work out of reach), cleared as soon as the command comes off it."""
+        if not self.limits[0] < command_mm < self.limits[1]:
+            self.saturated_s += self.period_s
+            if self.saturated_s >= self.get_parameter("saturation_warn_s").value \
+                    and not self.diagnostics.active("saturated"):
+                self.diagnostics.count("saturations")
+                text = (f"command saturated at {command_mm:+.2f} mm for {self.saturated_s:.2f} s: desired "
+                        f"{desired_n:.1f} N, measured {self.measured_n:.1f} N")
+                self.diagnostics.fault("saturated", text)
+                self.get_logger().warning(text)
+        else:
+            self.saturated_s = 0.0
+            self.diagnostics.clear("saturated")
 
 
 def main(args=None) -> int:

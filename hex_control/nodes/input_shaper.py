@@ -26,7 +26,6 @@ switches to it when ready.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from geometry_msgs.msg import PoseStamped
@@ -36,9 +35,10 @@ from sensor_msgs.msg import JointState
 
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, stamp_s, time_msg, tool_path_message, tool_path_rows
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
-from hex_control.nodes.runtime import run_node
+from hex_control.nodes.runtime import in_background, run_node
 from hex_control.shaping.filter import ShaperFilter, shape_whole
 from hex_control.shaping.optimize import DesignProblem, optimize
 from hex_control.shaping.shapers import SHAPERS, design
@@ -71,7 +71,6 @@ class InputShaperNode(Node):
         kind = self.get_parameter("input_type").value
         self._type = TYPES[kind]
         self.diagnostics = Diagnostics(self)
-        self._designer = ThreadPoolExecutor(max_workers=1, thread_name_prefix="shaper-design")
         self._pending = None
         self._filter = None
         self._shaper = self._closed_form(self._values()) if self._values()["shaper"] != "optimized" \
@@ -80,7 +79,8 @@ class InputShaperNode(Node):
             self._start_design(self._values())
         # setpoints must not be dropped: a queue of 100 samples (0.5 s at 200 Hz) each way
         self._publisher = self.create_publisher(self._type, self.get_parameter("output_topic").value, 100)
-        self.create_subscription(self._type, self.get_parameter("input_topic").value, self._on_sample, 100)
+        info_subscription(self, self._type, self.get_parameter("input_topic").value, self._on_sample, 100,
+                          self.diagnostics, "samples")
         self._path_publisher = self.create_publisher(ToolPath, "/motion/tool_path", LATCHED)
         self.create_subscription(ToolPath, "/motion/tool_path_raw", self._on_path, LATCHED)
         self.add_on_set_parameters_callback(self._validate)
@@ -101,7 +101,7 @@ class InputShaperNode(Node):
         frequencies = tuple(float(f) for f in values["optimized_frequencies_hz"])
         period = 1.0 / min(frequencies)
         problem = DesignProblem(frequencies_hz=frequencies, impulses=5, max_delay_s=1.5 * period)
-        self._pending = self._designer.submit(optimize, problem, 1)
+        self._pending = in_background(optimize, problem, 1)
         self.diagnostics.set("shaper", "optimized (designing)")
 
     def _validate(self, parameters) -> SetParametersResult:
@@ -179,10 +179,6 @@ class InputShaperNode(Node):
             out = JointState(header=msg.header, name=list(msg.name), position=shaped.tolist())
         self._publisher.publish(out)
         self.diagnostics.count("samples")
-
-    def destroy_node(self):
-        self._designer.shutdown(wait=False, cancel_futures=True)
-        return super().destroy_node()
 
 
 def main(args=None) -> int:

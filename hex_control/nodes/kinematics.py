@@ -45,6 +45,7 @@ from hex_control.kinematics.workspace import compute_workspace, cross_section
 from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, tool_path_rows
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control_msgs.msg import ConstraintReport, KinematicsErrorCode, ToolPath, ToolPose
@@ -186,7 +187,7 @@ class KinematicsNode(Node):
         self.create_service(TestPose, "~/test_pose", self._on_test_pose)
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
         self._command = self.create_publisher(JointState, "/plant/strut_command", 100)
-        self.create_subscription(PoseStamped, "/motion/setpoint", self._on_setpoint, 100)
+        info_subscription(self, PoseStamped, "/motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint")
         self._trajectory = self.create_publisher(JointTrajectory, "/plant/strut_trajectory", LATCHED)
         self.create_subscription(ToolPath, "/motion/tool_path", self._on_path, LATCHED)
         self._names = self.core.joint_names

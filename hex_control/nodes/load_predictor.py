@@ -31,6 +31,7 @@ from rclpy.node import Node
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.nodes.diagnostics import Diagnostics
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.messages import check_numeric_field, get_field, message_class
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
@@ -39,6 +40,7 @@ from hex_control_msgs.msg import LoadPrediction
 
 #: samples before the first online identification (the window may still be filling)
 _MIN_IDENTIFICATION_SAMPLES = 50
+REJECTION_WARN_S = 10.0  # a rejected input keeps the node at WARN this long (wall s) after the last
 _MODEL_PARAMETERS = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
 
 
@@ -94,8 +96,8 @@ class LoadPredictorNode(Node):
 
         depth = p("qos_depth").value
         self._publisher = self.create_publisher(LoadPrediction, "~/prediction", depth)
-        self._subscription = self.create_subscription(
-            input_class, p("input_topic").value, self._on_measurement, depth)
+        info_subscription(self, input_class, p("input_topic").value, self._on_measurement, depth, self.diagnostics,
+                          "measurements")
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._jump_handler = self.get_clock().create_jump_callback(
@@ -155,11 +157,11 @@ class LoadPredictorNode(Node):
         self._window.clear()
         self._last_stamp_ns = None
         self.diagnostics.count("resets")
-        self.get_logger().warning(f"predictor reset: {reason}")
+        self.get_logger().warning(f"predictor reset: {reason}", throttle_duration_sec=1.0)
 
     def _reject(self, counter: str, text: str) -> None:
         self.diagnostics.count(counter)
-        self.diagnostics.warn(text)
+        self.diagnostics.fault("rejected", text, hold_s=REJECTION_WARN_S)
         self.get_logger().warning(text, throttle_duration_sec=1.0)
 
     def _on_measurement(self, msg) -> None:

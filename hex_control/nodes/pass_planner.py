@@ -45,7 +45,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -61,7 +60,7 @@ from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message
                                           part_quality_message, stamp_s, time_msg, tool_path_message)
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
-from hex_control.nodes.runtime import run_node, wall_timer
+from hex_control.nodes.runtime import in_background, run_node, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
 from hex_control_msgs.srv import TestPose
@@ -93,7 +92,6 @@ class PassPlannerNode(Node):
         self.pending: PassCommand | None = None
         self.pending_since = None
         self.answered: set[tuple[str, int]] = set()
-        self.worker = ThreadPoolExecutor(max_workers=1)
         self.planning = None  # (command, future, plant time of its contour s)
         self.checking = None  # (command, (plan, path, process, contour s), TestPose future or None, since)
         self.check_sent_at = 0.0  # when the pending TestPose request went out (wall s)
@@ -146,7 +144,7 @@ class PassPlannerNode(Node):
         if contour is None:
             return
         command, self.pending = self.pending, None
-        self.planning = (command, self.worker.submit(self._plan, command, contour), stamp_s(contour.header.stamp))
+        self.planning = (command, in_background(self._plan, command, contour), stamp_s(contour.header.stamp))
 
     # -- planning (worker thread: library calls only) ------------------------------------
     def _plan(self, command: PassCommand, contour_msg: ContourMsg):
@@ -279,10 +277,6 @@ class PassPlannerNode(Node):
         pairs = {"job_id": command.job_id, "pass_index": command.pass_index, **values}
         self.status_pub.publish(DiagnosticStatus(level=level, name=self.get_fully_qualified_name(), message=message,
                                                  values=[KeyValue(key=k, value=str(v)) for k, v in pairs.items()]))
-
-    def destroy_node(self):
-        self.worker.shutdown(wait=False, cancel_futures=True)
-        return super().destroy_node()
 
 
 def _checked_positions(path) -> np.ndarray:

@@ -28,6 +28,10 @@ Modes (``mode``):
   are clamped to the table's travel [``retract_mm``, ``table_travel_max_mm``]; a true force
   above ``overload_n`` retracts the table until a command at or behind the contact resets
   the trip (counted, WARN in ``/diagnostics`` until then).
+- Command ownership (:mod:`hex_control.plant.command_owner`): each command input obeys one
+  publisher, the first heard or the node named by ``force_command_owner`` /
+  ``strut_command_owner``; a restart of that node takes over, others are refused and
+  counted (``foreign_*`` in ``/diagnostics``; messages lost on the way: ``lost_*``).
 With ``end_time_s`` > 0 the plant stops advancing there (a run of fixed length). Timing
 counts from the first answered measurement; ``report_file`` also gets it as JSON every second.
 Command latency (measurement out to command in, wall time) and missed cycles are reported
@@ -105,6 +109,7 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import (LATCHED, MAX_CONTOUR_LENGTH_MM, RESULTS, STREAM, TELEMETRY,
                                           contour_to_message, part_quality_message, stamp_s,
                                           strut_trajectory_from_message, time_msg)
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
@@ -122,6 +127,8 @@ from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
 
 HELD_TRAJECTORIES = 4  # strut trajectories held at once (the running one and those queued after it)
+MISSED_WARN = 0.1  # real time: a fraction of a second's cycles missed beyond which the plant warns
+LAG_WARN_S = 0.5  # real time: lag behind the wall clock beyond which the plant warns
 
 _TABLE, _MACHINE, _VARIATION = ForceTableParameters(), MachineParameters(), ProcessVariation()
 
@@ -182,6 +189,10 @@ PARAMETERS = {
                                 "[retract_mm, table_travel_max_mm]", -50.0, 50.0),
     "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
                        0.0, 1e5),
+    "force_command_owner": Spec("", "node whose force-axis commands the plant obeys, e.g. /force_controller; "
+                                "'' = the first to publish (command ownership, README threat model)"),
+    "strut_command_owner": Spec("", "node whose strut commands and trajectories the plant obeys, e.g. "
+                                "/kinematics; '' = the first to publish"),
     "grinding": Spec(False, "hold a workpiece: a bead ground where the struts put the disk"),
     "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")),
                          "machine YAML (config/machines/); must match the kinematics node's"),
@@ -249,6 +260,7 @@ class PlantNode(Node):
         self.telemetry = []  # (time s, measured N, true N, table mm, deflection mm, x mm, H mm, lengths m)
         self.debug_streams = p("debug_streams")
         self.timing = LoopTiming()
+        self._paced = (0, 0)  # cycles, missed at the last report
         self.started = False  # a first command has answered a measurement
         self.loop_start = self.loop_end = None
         self.diagnostics = Diagnostics(self)
@@ -259,9 +271,15 @@ class PlantNode(Node):
             depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.strut_publisher = self.create_publisher(JointState, "/plant/strut_states", 100)
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
-        self.create_subscription(Float64, "/plant/force_axis_command", self._on_force_command, 100)
-        self.create_subscription(JointState, "/plant/strut_command", self._on_strut_command, 100)
-        self.create_subscription(JointTrajectory, "/plant/strut_trajectory", self._on_strut_trajectory, LATCHED)
+        self.command_owners = {
+            topic: info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, p(owner))
+            for topic, msg_type, callback, qos, owner, name in (
+                ("/plant/force_axis_command", Float64, self._on_force_command, 100, "force_command_owner",
+                 "force_command"),
+                ("/plant/strut_command", JointState, self._on_strut_command, 100, "strut_command_owner",
+                 "strut_command"),
+                ("/plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
+                 "strut_command_owner", "strut_trajectory"))}
         # kept (transient-local, the last 10 batches): a late observer still learns where the plant holds
         self.telemetry_publisher = self.create_publisher(PlantTelemetry, "/plant/telemetry", TELEMETRY)
         if self.monitor is not None:
@@ -351,6 +369,7 @@ class PlantNode(Node):
             return
         self.command_mm = msg.data
         self.last_command_s, self.free_running = self.sim.time_s, False
+        self.diagnostics.clear("free_running")
         now = time.monotonic()
         answered = self.timing.answered(now)
         if answered and not self.started:
@@ -448,13 +467,13 @@ class PlantNode(Node):
         command_mm = limits.command_mm(self.command_mm, self.sim.table.force_n)
         if tripped and not limits.tripped:
             self.diagnostics.count("overload_resets")
-            self.diagnostics.ok("overload reset: the command asks for no force")
+            self.diagnostics.clear("overload")
         if limits.clamped > clamped:
             self.diagnostics.count("clamped_force_commands")
         if limits.trips > trips:
             self.diagnostics.count("overload_trips")
-            self.diagnostics.warn(f"overload: {self.sim.table.force_n:.0f} N > {limits.overload_n:g} N, "
-                                  "table retracted until the command asks for no force")
+            self.diagnostics.fault("overload", f"overload: {self.sim.table.force_n:.0f} N > {limits.overload_n:g} N, "
+                                   "table retracted until the command asks for no force")
             self.get_logger().error(f"overload trip at {self.sim.table.force_n:.0f} N: table retracted")
         return command_mm
 
@@ -478,8 +497,10 @@ class PlantNode(Node):
         result.header.stamp = time_msg(state.time_s)
         self.result_publisher.publish(result)
         self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
-        if m.burn_detected or m.stall_detected:
-            self.diagnostics.warn(f"pass {m.pass_index}: {'burn' if m.burn_detected else 'stall'} detected")
+        if m.burn_detected or m.stall_detected:  # until a pass without
+            self.diagnostics.fault("last_pass", f"pass {m.pass_index}: {'burn' if m.burn_detected else 'stall'} detected")
+        else:
+            self.diagnostics.clear("last_pass")
         self.get_logger().info(f"pass {m.pass_index} of {m.job_id}: cut {m.measured_cut_depth_mm:.4f} mm, "
                                f"{report.duration_s:.2f} s{', ABORTED: ' + report.reason if report.aborted else ''}")
 
@@ -492,6 +513,8 @@ class PlantNode(Node):
             return
         self.diagnostics.count("lockstep_timeouts")
         self.free_running = True
+        self.diagnostics.fault("free_running", "lock-step: the controller stopped answering, running on the wall "
+                                               "clock with the held command")
         if self._covered():
             self._advance()
 
@@ -561,6 +584,21 @@ class PlantNode(Node):
         msg.header.stamp = time_msg(samples[-1][0])
         self.telemetry_publisher.publish(msg)
 
+    def _judge_pace(self, lag_s: float) -> None:
+        """Real time: WARN while the last second missed over MISSED_WARN of its cycles or
+        the plant lags the wall clock by over LAG_WARN_S; it clears when both recover."""
+        cycles, missed = self.timing.cycles, self.timing.missed
+        if cycles < self._paced[0]:  # the count restarted with the first answer
+            self._paced = (0, 0)
+        recent_cycles, recent_missed = cycles - self._paced[0], missed - self._paced[1]
+        self._paced = (cycles, missed)
+        missed_fraction = recent_missed / recent_cycles if recent_cycles else 0.0
+        if missed_fraction > MISSED_WARN or lag_s > LAG_WARN_S:
+            self.diagnostics.fault("pace", f"behind real time: {missed_fraction:.0%} of the last second's cycles "
+                                           f"missed, {lag_s * 1e3:.0f} ms late")
+        else:
+            self.diagnostics.clear("pace")
+
     def _report(self) -> None:
         wall = (self.loop_end or time.monotonic()) - self.loop_start if self.loop_start is not None else math.nan
         p50, p99 = self.timing.latency_percentiles_ms()
@@ -570,6 +608,7 @@ class PlantNode(Node):
         if self.mode == "realtime":
             report.update(late_ticks=self.pacer.late_ticks, dropped_periods=self.pacer.dropped,
                           real_time_lag_ms=self.pacer.lag_s(time.monotonic()) * 1e3)
+            self._judge_pace(report["real_time_lag_ms"] * 1e-3)
         for name, value in report.items():
             self.diagnostics.set(name, f"{value:.4g}")
         path = self.get_parameter("report_file").value

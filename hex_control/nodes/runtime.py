@@ -17,6 +17,7 @@ import os
 import signal
 import sys
 import threading
+from concurrent.futures import Future
 
 import rclpy
 from rclpy.clock import Clock, ClockType
@@ -60,6 +61,41 @@ def init(args=None) -> threading.Event:
     return stop
 
 
+_background: set[threading.Thread] = set()  # threads started by in_background, while they run
+
+
+def in_background(function, *args) -> Future:
+    """``function(*args)`` on a daemon thread; its Future, which the node polls from its
+    executor. Daemon, because the interpreter joins a ThreadPoolExecutor's threads at exit:
+    a node stopped amid a long computation (a policy solve, a pass plan, a shaper design)
+    would not exit until it ended."""
+    future = Future()
+
+    def run():
+        try:
+            if future.set_running_or_notify_cancel():
+                future.set_result(function(*args))
+        except BaseException as exc:  # handed to the poller, which decides
+            future.set_exception(exc)
+        finally:
+            _background.discard(threading.current_thread())
+
+    thread = threading.Thread(target=run, name=getattr(function, "__name__", "background"), daemon=True)
+    _background.add(thread)
+    thread.start()
+    return future
+
+
+def _exit_past_background_work(code: int) -> None:
+    """Exit now if a background computation still runs: at interpreter shutdown a daemon
+    thread inside native code (scipy's C++ FFT) is unwound and aborts the process (seen as
+    'terminate called without an active exception', exit -6). ROS is shut down by then."""
+    if any(thread.is_alive() for thread in _background):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
 def spin_until_stopped(executor, stop: threading.Event) -> None:
     """Run callbacks in short waits until ``stop`` is set."""
     while not stop.is_set() and rclpy.ok():
@@ -93,4 +129,5 @@ def run_node(node_class, args=None) -> int:
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
+    _exit_past_background_work(0)
     return 0

@@ -48,7 +48,7 @@ from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
-from hex_control.nodes.runtime import run_node, wall_timer
+from hex_control.nodes.runtime import in_background, run_node, wall_timer
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
 
@@ -108,6 +108,8 @@ class SequencePlannerNode(Node):
         self.results: dict[bytes, GrindBead.Result] = {}
         self.model_update: PassModelUpdate | None = None
         self.last_solve_ms = math.nan  # wall time of the latest policy solve
+        self.solving = None  # (Future of the policy, then(process, policy) or None, goal handle) while solved
+        self._advance_after_solve = False  # a decision waits for the policy being solved
         self._sent_at = None
         self._unacknowledged = None  # (the latest PassCommand until the pass planner has it, wall s sent)
         self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
@@ -125,18 +127,54 @@ class SequencePlannerNode(Node):
                                    handle_accepted_callback=self._on_accepted,
                                    cancel_callback=self._on_cancel)
         wall_timer(self, 1.0, self._watchdog)
+        wall_timer(self, 0.02, self._poll_solve)
         self._resume()
 
     # -- jobs ------------------------------------------------------------------------------
-    def _policy_for(self, goal: JobGoal, process):
+    def _solve(self, goal: JobGoal, process, charges):
+        """The goal's policy (library only: it runs on a worker thread); (process, policy, ms)."""
         process = dataclasses.replace(process, bead_width_mm=goal.bead_width_mm,
                                       bead_length_mm=goal.bead_length_mm)
         start = time.perf_counter()
-        policy = solve(process, self.charges, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model)
-        self.last_solve_ms = 1000 * (time.perf_counter() - start)
+        policy = solve(process, charges, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model)
+        return process, policy, 1000 * (time.perf_counter() - start)
+
+    def _solved(self, solution) -> tuple:
+        process, policy, self.last_solve_ms = solution
         self.diagnostics.set("last_solve_ms", f"{self.last_solve_ms:.1f}")
         self.diagnostics.count("solves")
         return process, policy
+
+    def _policy_for(self, goal: JobGoal, process):
+        """Solve here and now: only at start-up, before any callback can run."""
+        return self._solved(self._solve(goal, process, self.charges))
+
+    def _solve_then(self, goal: JobGoal, process, then, goal_handle=None) -> None:
+        """Solve off the executor thread (a long deadline takes seconds), then ``then(process,
+        policy)`` on it; meanwhile the node answers, and decisions wait (_advance)."""
+        self.solving = (in_background(self._solve, goal, process, self.charges), then, goal_handle)
+
+    def _poll_solve(self) -> None:
+        if self.solving is None or not self.solving[0].done():
+            return
+        (future, then, goal_handle), self.solving = self.solving, None
+        try:
+            solution = self._solved(future.result())
+        except (ValueError, ArithmeticError, MemoryError) as exc:  # what waited for the policy ends here
+            self._advance_after_solve = False
+            if goal_handle is not None:
+                self.goal_handle = None
+                self._reject(goal_handle, f"no policy could be solved: {exc}")
+            elif self.job is not None and not self.job.finished:
+                self.job.end(ABORTED, f"the policy could not be re-solved: {exc}")
+                self._finish()
+            return
+        if then is not None:  # None: its goal was cancelled meanwhile
+            then(*solution)
+        if self._advance_after_solve:
+            self._advance_after_solve = False
+            if self.job is not None and not self.job.finished:
+                self._advance()
 
     def _configured(self, overrides: dict):
         """(process, charges) of the node's configuration with a goal's overrides on top."""
@@ -164,6 +202,9 @@ class SequencePlannerNode(Node):
         if self.job is not None and not self.job.finished:
             self._reject(goal_handle, f"job {self.job.goal.job_id} is still running")
             return
+        if self.solving is not None:
+            self._reject(goal_handle, "the planner is still solving a policy")
+            return
         try:
             overrides = {name: yaml.safe_load(text) for name, text in
                          (("charges", goal_handle.request.charges_yaml), ("process", goal_handle.request.process_yaml))}
@@ -175,13 +216,15 @@ class SequencePlannerNode(Node):
             self._reject(goal_handle, str(exc))
             return
         self.charges = charges
-        process, policy = self._policy_for(goal, process)
-        self.job = GrindingJob(goal, policy, charges, self.job_dir / f"{goal.job_id}.jsonl")
-        self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
         self.goal_handle = goal_handle
+        self._advance_after_solve = True
+        self._solve_then(goal, process, lambda process, policy: self._start(goal, process, policy), goal_handle)
+
+    def _start(self, goal: JobGoal, process, policy) -> None:
+        self.job = GrindingJob(goal, policy, self.charges, self.job_dir / f"{goal.job_id}.jsonl")
+        self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
         self.get_logger().info(f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s, "
                                f"policy solved in {self.last_solve_ms:.0f} ms")
-        self._advance()
 
     def _check_bounds(self, goal: JobGoal) -> None:
         """Bounded work: a goal whose policy would take unbounded time and memory is refused."""
@@ -199,6 +242,9 @@ class SequencePlannerNode(Node):
         goal_handle.execute()
 
     def _advance(self) -> None:
+        if self.solving is not None:  # decide on the policy being solved
+            self._advance_after_solve = True
+            return
         decision = self.job.decide()
         if decision is None:
             self._finish()
@@ -257,7 +303,16 @@ class SequencePlannerNode(Node):
         return result
 
     def _on_cancel(self, goal_handle):
-        if self.goal_handle is not goal_handle or self.job is None or self.job.finished:
+        if self.goal_handle is not goal_handle:
+            return CancelResponse.REJECT
+        if self.solving is not None and self.solving[2] is goal_handle:  # before its job began
+            self.solving = (self.solving[0], None, None)  # the solve runs out; its policy is dropped
+            self._advance_after_solve, self.goal_handle = False, None
+            self.results[bytes(goal_handle.goal_id.uuid)] = GrindBead.Result(
+                reason=GrindBead.Result.CANCELLED, message="cancelled while its policy was solved")
+            goal_handle.execute()
+            return CancelResponse.ACCEPT
+        if self.job is None or self.job.finished:
             return CancelResponse.REJECT
         self.job.end(CANCELLED, "cancelled by the client")
         self._finish()  # executes the goal now, so that the cancel can complete it
@@ -285,8 +340,10 @@ class SequencePlannerNode(Node):
         job.apply_result(msg.pass_index, msg.measured_cut_depth_mm, msg.duration_s, msg.status == PassResult.COMPLETED)
         self._unacknowledged = None
         self._result_stamp = msg.header.stamp
-        if msg.burn_detected:
-            self.diagnostics.warn(f"burn reported on pass {msg.pass_index}")
+        if msg.burn_detected:  # until a pass without
+            self.diagnostics.fault("burn", f"burn reported on pass {msg.pass_index}")
+        else:
+            self.diagnostics.clear("burn")
         stamp = _stamp_ns(msg.header.stamp)
         if (self.get_parameter("prediction_wait_s").value > 0 and stamp != self._last_prediction_stamp
                 and self.model_update.plausible(msg.specific_energy_j_mm3)
@@ -307,16 +364,22 @@ class SequencePlannerNode(Node):
         if not self.model_update.plausible(msg.prediction):
             self.diagnostics.count("rejected_predictions")
         else:
-            if self.model_update.observe(msg.prediction):
-                _, self.job.policy = self._policy_for(self.job.goal, self.model_update.process)
-                self.model_update.mark_solved()
-                self.get_logger().info(f"K1 now {msg.prediction:.3f} J/mm^3: policy re-solved in "
-                                       f"{self.last_solve_ms:.0f} ms")
+            if self.model_update.observe(msg.prediction) and self.solving is None:
+                self._solve_then(self.job.goal, self.model_update.process, self._resolved)
             self.job.update_model(msg.prediction, self.model_update.solved_with)
         self._last_prediction_stamp = _stamp_ns(msg.header.stamp)
         if self._awaited_stamp and self._awaited_stamp[0] == self._last_prediction_stamp:
             self._awaited_stamp = None
             self._advance()
+
+    def _resolved(self, process, policy) -> None:
+        if self.job is None or self.job.finished:
+            return
+        self.job.policy = policy
+        self.model_update.mark_solved(process.specific_energy_j_mm3)
+        self.job.update_model(self.model_update.process.specific_energy_j_mm3, self.model_update.solved_with)
+        self.get_logger().info(f"K1 now {process.specific_energy_j_mm3:.3f} J/mm^3: policy re-solved in "
+                               f"{self.last_solve_ms:.0f} ms")
 
     def _watchdog(self) -> None:
         if self._awaited_stamp and time.monotonic() - self._awaited_stamp[1] > self.get_parameter(
