@@ -219,17 +219,24 @@ def test_a_long_solve_runs_off_the_executor_and_can_be_cancelled(ros, planner):
 
 
 def test_sigint_amid_a_long_solve_exits_at_once(ros, planner):
-    """Issue 21 item 4: SIGINT hung for as long as a computation ran. The solve (about 6 s
-    idle, longer on a loaded machine) runs on a daemon thread: the node exits within 2 s."""
+    """Issue 21 item 4: SIGINT hung for as long as a computation ran. The solve runs on a
+    daemon thread: the node exits cleanly in less than half the time the same solve takes
+    here (measured afterwards in this process, so the ratio holds on a loaded machine)."""
     process = planner()
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
     send(ros, GrindBead.Goal(job_id="long", bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0,
                              deadline_s=1800.0))
     process.process.send_signal(signal.SIGINT)
     start = time.monotonic()
-    assert process.process.wait(timeout=30.0) == 0
-    assert time.monotonic() - start < 2.0
+    assert process.process.wait(timeout=120.0) == 0
+    exit_s = time.monotonic() - start
     assert planner_count(diagnostics, "solves") == 0  # it did not wait for the solve
+    from hex_control.grinding.sdp import solve
+    process_model, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
+    process_model = dataclasses.replace(process_model, bead_width_mm=12.5, bead_length_mm=300.0)
+    start = time.monotonic()
+    solve(process_model, charges, grid.covering(1800.0, 1.0), cut_model)
+    assert exit_s < (time.monotonic() - start) / 2
 
 
 def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path):

@@ -271,15 +271,14 @@ class PlantNode(Node):
             depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self.strut_publisher = self.create_publisher(JointState, "/plant/strut_states", 100)
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
-        self.command_owners = {
-            topic: info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, p(owner))
-            for topic, msg_type, callback, qos, owner, name in (
+        for topic, msg_type, callback, qos, owner, name in (
                 ("/plant/force_axis_command", Float64, self._on_force_command, 100, "force_command_owner",
                  "force_command"),
                 ("/plant/strut_command", JointState, self._on_strut_command, 100, "strut_command_owner",
                  "strut_command"),
                 ("/plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
-                 "strut_command_owner", "strut_trajectory"))}
+                 "strut_command_owner", "strut_trajectory")):
+            info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, p(owner))
         # kept (transient-local, the last 10 batches): a late observer still learns where the plant holds
         self.telemetry_publisher = self.create_publisher(PlantTelemetry, "/plant/telemetry", TELEMETRY)
         if self.monitor is not None:
