@@ -84,3 +84,33 @@ def test_positive_area_with_touching_zeros():
     x = np.array([0.0, 1.0, 2.0])
     assert positive_area(x, np.array([0.0, 2.0, 0.0])) == pytest.approx(2.0)
     assert positive_area(x, np.array([-1.0, 0.0, -1.0])) == 0.0
+
+
+def test_a_capped_cut_keeps_the_volume_and_cuts_nowhere_deeper_than_the_cap():
+    """The force guard's final contour: no point cut deeper than the cap, the tip no
+    steeper than its slope, eq. 6.1's volume kept, the level no lower than the cap over
+    the parent (nor than eq. 6.2's), and eq. 6.2 as printed where the cap does not bind."""
+    bead = weld_bead(length_mm=60.0, height_mm=1.0, end_ramp_mm=12.0, ripple_mm=0.15, seed=4)
+    width, depth, cap = 12.5, 0.135, 0.25
+    level = final_contour(bead, depth, width)
+    assert np.max(bead.z_mm - level.tip_mm) > 2.5 * depth  # the level top cuts the crests deep
+    capped = final_contour(bead, depth, width, max_cut_mm=cap, cap_slope=0.05)
+    assert capped.removed_mm3 == pytest.approx(level.removed_mm3, rel=1e-6)
+    cut = bead.z_mm - np.minimum(capped.tip_mm, bead.z_mm)
+    assert np.max(cut) <= cap + 1e-9 and np.max(cut) > 0.9 * cap
+    assert np.max(np.abs(np.diff(capped.tip_mm) / np.diff(bead.x_mm))) <= 0.05 + 1e-9
+    assert capped.offset_mm < level.offset_mm and capped.offset_mm >= cap
+    x = capped.contour.x_mm  # the envelope is the polyline whose area is the volume
+    assert width * positive_area(x, bead.height_at(x) - capped.contour.z_mm) == pytest.approx(capped.removed_mm3,
+                                                                                               rel=1e-6)
+    loose = final_contour(bead, depth, width, max_cut_mm=10.0)
+    np.testing.assert_array_equal(loose.tip_mm, level.tip_mm)
+
+
+def test_a_cap_too_tight_for_the_volume_removes_less_and_keeps_the_level_off_the_parent():
+    bead = weld_bead(length_mm=60.0, height_mm=1.0, end_ramp_mm=12.0, ripple_mm=0.15, seed=4)
+    capped = final_contour(bead, 0.135, 12.5, max_cut_mm=0.05)
+    assert capped.removed_mm3 < 0.135 * 12.5 * 60.0 and capped.offset_mm == pytest.approx(0.05)
+    assert np.all(capped.tip_mm - bead.parent_mm >= 0.05 - 1e-12)
+    with pytest.raises(ValueError, match="cap"):
+        final_contour(bead, 0.135, 12.5, max_cut_mm=0.0)

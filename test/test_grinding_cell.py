@@ -41,7 +41,7 @@ def grind_plan(cell, plan, force_scale=1.0):
 def test_an_executed_plan_removes_what_was_planned():
     """Seed 002 6.6: the plan's force, applied on the plant's coupling (table winds the
     spring, eq. 7.1), removes the planned volume; the measured K1 is the pass's own."""
-    plan = plan_forces(BEAD, MODEL, 0.4, 20.0)
+    plan = plan_forces(BEAD, MODEL, 0.4, 7.5)  # within F_max (49 N at most)
     cell = GrindingCell(BEAD, MODEL, ProcessVariation(0.0, 0.0))
     cell.start_pass("job", 0)
     grind_plan(cell, plan)
@@ -49,7 +49,7 @@ def test_an_executed_plan_removes_what_was_planned():
     assert m.measured_cut_depth_mm == pytest.approx(0.4, rel=0.01)
     assert m.removed_volume_mm3 == pytest.approx(0.4 * 12.5 * 150.0, rel=0.01)
     assert m.specific_energy_j_mm3 == pytest.approx(MODEL.process.specific_energy_j_mm3, rel=0.01)
-    assert m.mean_feed_mm_s == pytest.approx(20.0, rel=1e-6)
+    assert m.mean_feed_mm_s == pytest.approx(7.5, rel=1e-6)
     assert m.contour_after.z_mm.max() < m.contour_before.z_mm.max()
     assert not m.burn_detected and not m.stall_detected
 
@@ -60,14 +60,17 @@ def test_an_executed_plan_removes_what_was_planned():
 def test_the_plants_cell_and_the_planners_execution_agree_on_a_pass(feed):
     """Issue 20 item 3: the pass planner checks a plan with execute_plan, the plant grinds it
     in its cell; two simulations of one pass must agree. On a rippled 60 mm bead at the
-    slowest and a middle feed they remove the same volume within 2 %."""
+    slowest and a middle feed they remove the same volume within 2 %. At 39.5 mm/s the
+    force guard's plan lifts off in the troughs; execute_plan resolves those landings at
+    0.05 mm of feed per step (at 0.1 mm it removes 2.7 % more than at 0.05 or 0.025 mm)."""
     bead = weld_bead(60.0, 1.0, 12.0, ripple_mm=0.15, seed=4)
     plan = plan_pass(bead, MODEL, 0.4 * bead.area_above(bead.parent_mm) / bead.length_mm, feed)
     cell = GrindingCell(bead, MODEL, ProcessVariation(0.0, 0.0))
     cell.start_pass("job", 0)
     grind_plan(cell, plan)
     measured = cell.finish_pass()
-    assert measured.removed_volume_mm3 == pytest.approx(execute_plan(bead, MODEL, plan).removed_mm3, rel=0.02)
+    executed = execute_plan(bead, MODEL, plan, step_mm=0.05)
+    assert measured.removed_volume_mm3 == pytest.approx(executed.removed_mm3, rel=0.02)
 
 
 def test_the_table_sees_the_work_only_in_contact():
@@ -92,7 +95,7 @@ def test_variation_dulling_and_burn():
         cell.finish_pass()
     assert energies == pytest.approx([10.0, 12.0, 14.4])
     # eq. 5.11: 93 N mean at 20 mm/s exceeds C_B sqrt(V_f) = 15 sqrt(20) = 67 N
-    plan = plan_forces(BEAD, MODEL, 0.4, 20.0)
+    plan = plan_forces(BEAD, MODEL, 0.4, 7.5)  # within F_max (49 N at most)
     burning = GrindingCell(BEAD, MODEL, ProcessVariation(0.0, 0.0), burn_coefficient=15.0)
     burning.start_pass("job", 0)
     grind_plan(burning, plan)

@@ -98,10 +98,11 @@ def test_command_and_contour_give_a_force_trajectory_and_a_path(planner):
 
 def test_the_force_is_planned_with_the_commands_k1(planner):
     """A dulling disk: the sequence planner computed the cut with a K1 of 15 J/mm^3, so the
-    same cut asks for the force the model gives at that K1 (0 = the config's K1)."""
+    same cut asks for the force the model gives at that K1 (0 = the config's K1). At 5 mm/s
+    both plans stay within F_max: the force guard would otherwise even out their peaks."""
     publishers, outputs = planner
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
-    publishers["command"].publish(_command(specific_energy_j_mm3=15.0))
+    publishers["command"].publish(_command(feed=5.0, specific_energy_j_mm3=15.0))
     trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
                             what="a force trajectory")
     status = wait_until(lambda: outcome(outputs["status"]), 5.0, what="status")
@@ -112,8 +113,10 @@ def test_the_force_is_planned_with_the_commands_k1(planner):
     for value in (config.model.process.specific_energy_j_mm3, 15.0):
         model = dataclasses.replace(config.model, process=dataclasses.replace(
             config.model.process, specific_energy_j_mm3=value, bead_width_mm=12.5))
-        forces[value] = plan_forces(BEAD, model, 0.3, 10.0, config.planner, config.control, config.gains,
-                                    config.step_mm, config.compliance).force_n
+        plan = plan_forces(BEAD, model, 0.3, 5.0, config.planner, config.control, config.gains, config.step_mm,
+                           config.compliance)
+        assert plan.reason == ""
+        forces[value] = plan.force_n
     np.testing.assert_allclose(trajectory.normal_force_n, forces[15.0], rtol=1e-9)
     assert np.mean(forces[15.0]) > 1.3 * np.mean(forces[config.model.process.specific_energy_j_mm3])
 

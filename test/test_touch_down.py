@@ -86,7 +86,8 @@ def test_a_loop_started_at_the_standoff_finds_the_force_several_times_sooner():
 
 
 def _grind_under_the_force_loop(start_mm: float):
-    """A finishing pass (98 % of the bead's mean height, 20 mm/s) planned on a 60 mm bead,
+    """A finishing pass (98 % of the bead's mean height, 20 mm/s) planned on a 60 mm bead low
+    enough (0.2 mm) for the pass to stay within F_max, so the plan is not force-guarded,
     executed on the plant's cell by the shipped PI through the force table from a table
     held at ``start_mm``: the part's figures after it."""
     from hex_control.grinding.contour import weld_bead
@@ -96,8 +97,9 @@ def _grind_under_the_force_loop(start_mm: float):
     from hex_control.grinding.variation import ProcessVariation
     from hex_control.plant.grinding_cell import GrindingCell
 
-    bead, model = weld_bead(60.0, 0.5, seed=3), DiskModel()
+    bead, model = weld_bead(60.0, 0.2, ripple_mm=0.05, seed=3), DiskModel()
     plan = plan_forces(bead, model, 0.98 * bead.area_above(bead.parent_mm) / bead.length_mm, 20.0)
+    assert plan.reason == ""
     cell = GrindingCell(bead, model, ProcessVariation(0.0, 0.0))
     table = ForceTable(ForceTableParameters(), step_s=0.001)
     table.reset(start_mm)
@@ -119,10 +121,11 @@ def _grind_under_the_force_loop(start_mm: float):
 
 def test_touched_down_the_bead_start_is_ground_as_planned():
     """The cause, reproduced on the plant's own cell and table: from the retracted stop the
-    first 3.4 mm of the bead stand 0.18 mm high after a finishing pass; touched down, under
-    0.03 mm, and the pass removes the planned depth within 1 %."""
+    bead stands 0.11 mm high 5.6 mm from its start after a finishing pass (0.225 s short of the
+    force at 20 mm/s is 4.5 mm of bead); touched down, under 0.03 mm, and the pass removes
+    the planned depth within 1 %."""
     _, retracted, _ = _grind_under_the_force_loop(RETRACTED_MM)
     measured, touched, plan = _grind_under_the_force_loop(TouchDown().target_mm)
-    assert retracted.highest_mm > 0.15 and retracted.highest_x_mm < 6.0
+    assert retracted.highest_mm > 0.1 and retracted.highest_x_mm < 7.0
     assert touched.highest_mm < 0.03 and touched.gouge_mm < 0.02
     assert measured.measured_cut_depth_mm == pytest.approx(plan.planned_depth_mm, rel=0.01)

@@ -98,52 +98,97 @@ def weld_bead(length_mm: float = 150.0, height_mm: float = 3.0, end_ramp_mm: flo
 @dataclass(frozen=True)
 class FinalContour:
     offset_mm: float  # N of eq. 6.2b: the desired shape's height adjustment
-    tip_mm: np.ndarray  # the disk-tip trajectory z_f + N at the initial x (may lie below Z_i's dips)
-    contour: Contour  # Z_f = min(z_f + N, Z_i), eq. 6.2c, with the crossings added to its x
+    tip_mm: np.ndarray  # the disk-tip trajectory max(z_f + N, Z_i - cap) at the initial x (may lie below Z_i's dips)
+    contour: Contour  # Z_f = min(tip, Z_i), eq. 6.2c, with the crossings added to its x
     removed_mm3: float
+    max_cut_mm: float = math.inf  # the local cut's cap (inf: eq. 6.2 as printed)
 
 
 def final_contour(initial: Contour, cut_depth_mm: float, width_mm: float, shape_mm=None,
-                  tolerance: float = 1e-9) -> FinalContour:
+                  tolerance: float = 1e-9, max_cut_mm: float = math.inf, cap_slope: float = 0.05) -> FinalContour:
     """Eq. 6.1-6.2: Delta V = delta w L; find N by bisection so that
     w int_0^L g(Z_i(x) - z_f(x) - N) dx = Delta V, then Z_f = min(z_f + N, Z_i).
 
     The desired shape z_f defaults to the parent surface (a final contour parallel to it).
     Eq. 6.2a prints g(Z_i - z_f + eta); with 6.2c's z_f + N as the final height the removed
     depth is Z_i - z_f - N, the sign used here.
+
+    ``max_cut_mm`` caps the local cut, so that no point needs more than the force that cuts
+    it (F_max, seed 002 ch. 5): a shallow level top on a rippled bead would cut the crests
+    several times deeper than the mean. Capped, the tip runs no lower than the cap under the
+    bead's upper envelope of slope ``cap_slope`` (a cone rolled over Z_i - z_f, so that
+    the tip rises and falls no steeper than that, over ripple and bead ends alike); the
+    crests keep what the cap leaves for later passes and N sinks to keep the volume, but not
+    below the cap over the shape (nor below eq. 6.2's N where that is lower): the cap does not
+    finish the bead's ends and troughs down to the parent while crests still stand, where
+    every later pass would run on the finished surface. When that cannot remove Delta V,
+    ``removed_mm3`` is smaller.
     """
     if not (math.isfinite(cut_depth_mm) and cut_depth_mm >= 0 and width_mm > 0):
         raise ValueError("need a finite cut depth >= 0 and a width > 0 (mm)")
+    if not (max_cut_mm > 0 and math.isfinite(cap_slope) and cap_slope >= 0):
+        raise ValueError(f"need a cap on the local cut > 0 mm and a slope >= 0, got {max_cut_mm!r}, {cap_slope!r}")
     shape = initial.parent_mm if shape_mm is None else np.broadcast_to(np.asarray(shape_mm, float), initial.z_mm.shape)
     wanted = cut_depth_mm * width_mm * initial.length_mm  # eq. 6.1
-    removed = lambda n: width_mm * positive_area(initial.x_mm, initial.z_mm - shape - n)  # noqa: E731
-    high = float(np.max(initial.z_mm - shape))  # nothing is removed above the highest point
-    low = high - cut_depth_mm * 2 - 1.0
-    while removed(low) < wanted:  # the bisection needs a bracket: go deeper until it holds
-        low = high - 2 * (high - low)
+    above = initial.z_mm - shape
+    level = lambda n: np.full_like(above, n)  # noqa: E731 -- eq. 6.2's tip above the shape
+    offset = _offset_for(initial.x_mm, above, level, wanted, width_mm, cut_depth_mm, tolerance)
+    if float(np.max(above)) - offset > max_cut_mm:  # the cap binds somewhere
+        floor = _cone_envelope(initial.x_mm, above, cap_slope) - max_cut_mm
+        capped = lambda n: np.maximum(n, floor)  # noqa: E731
+        lowest = min(offset, max_cut_mm)
+        if width_mm * positive_area(initial.x_mm, above - capped(lowest)) <= wanted:
+            offset = lowest
+        else:
+            offset = _offset_for(initial.x_mm, above, capped, wanted, width_mm, cut_depth_mm, tolerance, lowest)
+        level = capped
+    tip = shape + level(offset)
+    return FinalContour(offset, tip, _lower_envelope(initial, tip),
+                        width_mm * positive_area(initial.x_mm, initial.z_mm - tip), max_cut_mm)
+
+
+def _offset_for(x_mm, above_mm, level, wanted_mm3: float, width_mm: float, depth_mm: float, tolerance: float,
+                low: float | None = None) -> float:
+    """N where w int g(above - level(N)) dx = wanted, ``level`` increasing in N (bisection)."""
+    removed = lambda n: width_mm * positive_area(x_mm, above_mm - level(n))  # noqa: E731
+    high = float(np.max(above_mm))  # nothing is removed above the highest point
+    if low is None:
+        low = high - depth_mm * 2 - 1.0
+        while removed(low) < wanted_mm3:  # the bisection needs a bracket: go deeper until it holds
+            low = high - 2 * (high - low)
     for _ in range(200):
         middle = (low + high) / 2
-        if removed(middle) > wanted:
+        if removed(middle) > wanted_mm3:
             low = middle
         else:
             high = middle
         if high - low <= tolerance * max(1.0, abs(middle)):
             break
-    offset = (low + high) / 2
-    tip = shape + offset
-    return FinalContour(offset, tip, _lower_envelope(initial, tip), removed(offset))
+    return (low + high) / 2
+
+
+def _cone_envelope(x_mm: np.ndarray, z_mm: np.ndarray, slope: float) -> np.ndarray:
+    """max_j (z_j - slope |x - x_j|): the lowest curve of slope <= ``slope`` on or above z
+    (two running maxima, exact on the samples)."""
+    forward = np.maximum.accumulate(z_mm + slope * x_mm) - slope * x_mm
+    backward = np.maximum.accumulate((z_mm - slope * x_mm)[::-1])[::-1] + slope * x_mm
+    return np.maximum(forward, backward)
 
 
 def _lower_envelope(initial: Contour, tip_mm: np.ndarray) -> Contour:
     """min(tip, Z_i) as a polyline, with the points where the two cross inserted, so that
     it is exact between the samples too."""
-    d = initial.z_mm - tip_mm
-    crossing = np.nonzero((d[:-1] > 0) != (d[1:] > 0))[0]
-    crossing = crossing[(d[crossing] != 0) & (d[crossing + 1] != 0)]
-    fraction = d[crossing] / (d[crossing] - d[crossing + 1])
-    x_new = initial.x_mm[crossing] + fraction * np.diff(initial.x_mm)[crossing]
+    x_new = _crossings(initial.x_mm, initial.z_mm - tip_mm)
     x = np.concatenate([initial.x_mm, x_new])
     order = np.argsort(x, kind="stable")
     z = np.concatenate([np.minimum(tip_mm, initial.z_mm), initial.height_at(x_new)])
     parent = np.interp(x, initial.x_mm, initial.parent_mm)
     return Contour(x[order], z[order], parent[order])
+
+
+def _crossings(x_mm: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Where the polyline d(x) changes sign strictly inside a segment (mm)."""
+    crossing = np.nonzero((d[:-1] > 0) != (d[1:] > 0))[0]
+    crossing = crossing[(d[crossing] != 0) & (d[crossing + 1] != 0)]
+    fraction = d[crossing] / (d[crossing] - d[crossing + 1])
+    return x_mm[crossing] + fraction * np.diff(x_mm)[crossing]

@@ -4,8 +4,9 @@ Planning by simulation (6.6): the final contour that removes the sequence planne
 (6.1) gives the desired tip trajectory; a simulated controller (eq. 6.17, or the relaxed-
 angle variant) grinds the contour in the dynamic model so that the tip follows it; the
 simulated normal force along the pass is the force trajectory for the force controller.
-Stall guard: a pass whose power would exceed the grinder's allowed fraction (80 %) is
-re-planned shallower (the secant on peak power vs depth), and says why.
+Force and stall guard: no point of a pass needs more than F_max or the grinder's allowed
+fraction of its power (80 %); a pass that would is re-planned with a shallower level top
+or with its local cut capped, whichever keeps more, and one that removes less says why.
 
 The static planner (8.3 item 3) is the fast fallback for a flexible disk: removal rate
 from the cross-section to be removed times the feed, force from the power law, the
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.grinding.contour import Contour, FinalContour, final_contour
+from hex_control.grinding.contour import Contour, FinalContour, final_contour, positive_area
 from hex_control.grinding.dynamic import (DiskModel, ForceSchedule, HeightControl, PassSimulation,
                                           RelaxedAngleControl, simulate_pass)
 from hex_control.grinding.model import WATT, GrindingProcess
@@ -36,12 +37,12 @@ class PlanningError(ValueError):
 @dataclass(frozen=True)
 class PassPlan:
     requested_depth_mm: float
-    planned_depth_mm: float  # smaller than requested when the stall guard cut it
+    planned_depth_mm: float  # the target's mean cut: smaller than requested when a guard cut it
     feed_mm_s: float
     target: FinalContour  # the desired final contour and tip trajectory (6.1)
     simulation: PassSimulation  # the controlled pass (6.6): force, height, power histories
     reason: str  # why the depth was reduced ('' if it was not)
-    simulations: int = 1  # dynamic simulations it took (more than one: the stall guard searched)
+    simulations: int = 1  # dynamic simulations it took (more than one: the guard searched)
 
     @property
     def time_s(self) -> np.ndarray:
@@ -65,22 +66,29 @@ class PassPlan:
                 "feed_mm_s": self.feed_mm_s, "duration_s": float(h["time_s"][-1]),
                 "wanted_volume_mm3": self.target.removed_mm3, "simulated_volume_mm3": self.simulation.removed_mm3,
                 "peak_force_n": float(np.max(h["force_n"])), "peak_power_w": self.simulation.peak_power_w,
-                "multiple_patch_steps": self.simulation.multiple_patch_steps, "reason": self.reason,
+                "max_cut_mm": self.target.max_cut_mm, "multiple_patch_steps": self.simulation.multiple_patch_steps,
+                "reason": self.reason,
                 "simulations": self.simulations}
 
 
 def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float,
               control: str = "height", step_mm: float = 0.1, shape_mm=None, gains: tuple[float, float] | None = None,
-              depth_tolerance: float = 0.01, max_simulations: int = 12) -> PassPlan:
+              depth_tolerance: float = 0.02, max_simulations: int = 12) -> PassPlan:
     """Plan one pass of mean cut depth ``cut_depth_mm`` at ``feed_mm_s`` on ``contour``.
     ``gains``: (G1, G2) of the controller chosen by ``control`` (its defaults if None).
 
-    Stall guard: a pass whose simulated peak power exceeds ``power_fraction`` of the
-    grinder's is planned at the deepest depth under that limit, found to
-    ``depth_tolerance`` of the requested depth (or to that fraction of the limit in power)
-    by the secant on peak power vs depth, kept inside a bracket (bisection when it leaves
-    it). Peak power is nearly affine in depth, so two or three simulations do, where a
-    bisection took a dozen (135 s in a busy graph). At most ``max_simulations`` in all.
+    Force and stall guard: no point of the pass may need more than F_max, nor more than
+    ``power_fraction`` of the grinder's power. The sequence planner's F_N <= F_max holds
+    for the mean cut; a level top (eq. 6.2) on a rippled bead cuts the crests deeper than
+    the mean, several times deeper on a shallow pass, and fast passes overshoot in the
+    dynamic model. A pass over a limit is re-planned one of two ways, whichever the static
+    estimate says removes more: a shallower level top (best when the excess is small), or
+    the requested volume with the local cut capped (``final_contour``'s ``max_cut_mm``;
+    best on shallow passes, where only the crests are cut). Its parameter is searched to
+    ``depth_tolerance`` of the limit or of its own range by the secant on the peak load vs
+    the parameter, kept inside a bracket (bisection when it leaves it); the load is nearly
+    affine in either, so two or three simulations do. At most ``max_simulations`` in all.
+    A plan that removes less than asked says why in ``reason``.
     """
     if control not in CONTROLS:
         raise PlanningError(f"control must be one of {CONTROLS}, got {control!r}")
@@ -91,44 +99,77 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
         raise PlanningError(f"feed speed {feed_mm_s!r} mm/s outside [{process.feed_min_mm_s}, "
                             f"{process.feed_max_mm_s}]")
     limit_w = process.power_fraction * process.max_power_w
+    width, length = process.bead_width_mm, contour.length_mm
 
-    def attempt(depth):
-        target = final_contour(contour, depth, process.bead_width_mm, shape_mm)
+    def simulate(target):
         controller = HeightControl if control == "height" else RelaxedAngleControl
         drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], *(gains or ()))
-        return target, simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
+        simulation = simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
+        load = max(float(np.max(simulation.history["force_n"], initial=0.0)) / process.force_max_n,
+                   simulation.peak_power_w / limit_w)
+        return (target, simulation), load
 
-    target, simulation = attempt(cut_depth_mm)
-    if simulation.peak_power_w <= limit_w:
-        return PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, target, simulation, "")
-    needed = simulation.peak_power_w
-    aim_w = limit_w * (1 - depth_tolerance / 2)  # just under the limit, so that a secant lands feasible
-    low, high, best, best_w = 0.0, cut_depth_mm, None, math.nan  # the bracket of the edge
-    last, previous = (cut_depth_mm, needed), None  # (depth, peak power) of the latest simulations
+    def level_top(depth):
+        return final_contour(contour, depth, width, shape_mm)
+
+    def capped(cap):
+        return final_contour(contour, cut_depth_mm, width, shape_mm, max_cut_mm=cap)
+
+    first = level_top(cut_depth_mm)
+    best, load = simulate(first)
+    if load <= 1:
+        return PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, *best, "")
+    first_simulation = best[1]
+    aim = 1 - depth_tolerance / 2  # just under the limit, so that a secant lands feasible
+    deepest = float(np.max(contour.z_mm - first.tip_mm))  # the level top's deepest local cut (mm)
+    allowed = deepest * aim / load  # as if the peak load were proportional to the deepest cut
+    shallower = positive_area(contour.x_mm, contour.z_mm - first.tip_mm - (deepest - allowed)) / length
+    if shallower >= capped(allowed).removed_mm3 / (width * length):
+        make, upper, guess, how = level_top, cut_depth_mm, shallower, "a shallower level top"
+    else:
+        make, upper, guess, how = capped, deepest, allowed, "the local cut capped"
+    low, high, best, best_load = 0.0, upper, None, math.nan  # the bracket of the edge
+    last, previous = None, None  # (parameter, peak load) of the latest simulations in this family
     for simulations in range(2, max_simulations + 1):
-        if previous is None:
-            middle = cut_depth_mm * aim_w / needed  # as if power were proportional to depth
+        if last is None:
+            middle = guess
+        elif previous is None:
+            middle = last[0] * aim / last[1]  # as if the load were proportional to the parameter
         else:
-            (d1, p1), (d0, p0) = last, previous
-            middle = d1 + (aim_w - p1) * (d1 - d0) / (p1 - p0) if p1 != p0 else math.nan
-        if not low < middle < high:  # the secant left the bracket (or power is not monotone there)
+            (p1, l1), (p0, l0) = last, previous
+            middle = p1 + (aim - l1) * (p1 - p0) / (l1 - l0) if l1 != l0 else math.nan
+        if not low < middle < high:  # the secant left the bracket (or the load is not monotone there)
             middle = (low + high) / 2
-        candidate = attempt(middle)
-        power = candidate[1].peak_power_w
-        if power <= limit_w:
-            low, best, best_w = middle, candidate, power
+        candidate, candidate_load = simulate(make(middle))
+        if candidate_load <= 1:
+            low, best, best_load = middle, candidate, candidate_load
         else:
             high = middle
-        previous, last = last, (middle, power)
-        if best is not None and (high - low <= depth_tolerance * cut_depth_mm
-                                 or limit_w - best_w <= depth_tolerance * limit_w):
+        previous, last = last, (middle, candidate_load)
+        if best is not None and (high - low <= depth_tolerance * upper or 1 - best_load <= depth_tolerance):
             break
     if best is None:
-        raise PlanningError(f"even a {high:.3g} mm pass needs more than {limit_w:.0f} W "
-                            f"({process.power_fraction:.0%} of the grinder's {process.max_power_w:.0f} W)")
-    reason = (f"stall guard: depth reduced from {cut_depth_mm:.3f} to {low:.3f} mm; the requested pass needs "
-              f"{needed:.0f} W, more than {limit_w:.0f} W ({process.power_fraction:.0%} of the grinder's maximum)")
-    return PassPlan(cut_depth_mm, low, feed_mm_s, *best, reason, simulations)
+        raise PlanningError(f"even {how} at {high:.3g} mm needs more than F_max {process.force_max_n:g} N or "
+                            f"{limit_w:.0f} W ({process.power_fraction:.0%} of the grinder's "
+                            f"{process.max_power_w:.0f} W)")
+    target = best[0]
+    planned = target.removed_mm3 / (width * length)
+    if planned >= cut_depth_mm * (1 - 1e-6):
+        return PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, *best, "", simulations)
+    if math.isfinite(target.max_cut_mm):
+        how = f"the local cut capped at {target.max_cut_mm:.3f} mm"
+    return PassPlan(cut_depth_mm, planned, feed_mm_s, *best,
+                    _reduced_because(process, first_simulation, limit_w)
+                    + f"; with {how}, depth reduced from {cut_depth_mm:.3f} to {planned:.3f} mm", simulations)
+
+
+def _reduced_because(process: GrindingProcess, first: PassSimulation, limit_w: float) -> str:
+    """Which limit the requested pass broke, and by how much."""
+    force_n, power_w = float(np.max(first.history["force_n"], initial=0.0)), first.peak_power_w
+    if power_w / limit_w > force_n / process.force_max_n:
+        return (f"stall guard: the requested pass needs {power_w:.0f} W, more than {limit_w:.0f} W "
+                f"({process.power_fraction:.0%} of the grinder's maximum)")
+    return f"force guard: the requested pass needs {force_n:.0f} N, more than F_max {process.force_max_n:g} N"
 
 
 def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.1) -> PassSimulation:
