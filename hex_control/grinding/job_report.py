@@ -29,7 +29,7 @@ class JobRecord:
     commands: dict = field(default_factory=dict)  # pass index -> the PassCommand's values
     results: dict = field(default_factory=dict)  # pass index -> the PassResult's values
     trajectories: dict = field(default_factory=dict)  # pass index -> (grind start s, times s, forces N)
-    planned_cut_mm: dict = field(default_factory=dict)  # pass index -> the pass planner's depth (stall guard)
+    planned_cut_mm: dict = field(default_factory=dict)  # pass index -> the pass planner's depth (force/stall guard)
     force: list = field(default_factory=list)  # (t s, measured N)
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
     strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
@@ -38,9 +38,9 @@ class JobRecord:
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
 
-    def stall_guard_cut_mm(self, index: int) -> float | None:
-        """The depth the pass planner planned pass ``index`` with (mm) where its stall guard
-        cut the sequence planner's; None where it planned the commanded depth."""
+    def guard_cut_mm(self, index: int) -> float | None:
+        """The depth the pass planner planned pass ``index`` with (mm) where its force or
+        stall guard cut the sequence planner's; None where it planned the commanded depth."""
         planned, command = self.planned_cut_mm.get(index), self.commands.get(index)
         if planned is None or command is None or abs(planned - command["cut_depth_mm"]) < 1e-9:
             return None

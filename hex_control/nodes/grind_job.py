@@ -107,11 +107,11 @@ class JobObserver(Node):
                 record.struts.append((stamp, *msg.strut_lengths_m[k * n:(k + 1) * n]))
 
 
-def print_row(index: int, command: dict, result: dict, stall_guard_cut_mm: float | None = None) -> None:
-    """One row of the pass table; ``stall_guard_cut_mm``: the depth the pass planner's stall
+def print_row(index: int, command: dict, result: dict, guard_cut_mm: float | None = None) -> None:
+    """One row of the pass table; ``guard_cut_mm``: the depth the pass planner's force or stall
     guard planned instead of the command's, shown with a *."""
     quality = result["part_quality"]
-    cut = f"{command['cut_depth_mm']:>8.4f}" if stall_guard_cut_mm is None else f"{stall_guard_cut_mm:>7.4f}*"
+    cut = f"{command['cut_depth_mm']:>8.4f}" if guard_cut_mm is None else f"{guard_cut_mm:>7.4f}*"
     print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
           f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
           f"{cut} "
@@ -276,7 +276,7 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
 
         def on_pass(index, command, result):
             if not quiet:
-                print_row(index, command, result, session.record.stall_guard_cut_mm(index))
+                print_row(index, command, result, session.record.guard_cut_mm(index))
             if index == restart_planner_after:
                 session.graph.kill("sequence_planner")
                 session.graph.start("sequence_planner")
@@ -284,8 +284,9 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
                 if not quiet:
                     print("     sequence planner killed and restarted", flush=True)
         session.wait_for_outcome(timeout_s, on_pass)
-        if not quiet and any(session.record.stall_guard_cut_mm(k) is not None for k in session.record.results):
-            print("   * depth cut by the pass planner's stall guard (the pass would need more power)")
+        if not quiet and any(session.record.guard_cut_mm(k) is not None for k in session.record.results):
+            print("   * depth cut by the pass planner's force or stall guard (the pass would need more than F_max "
+                  "or 80 % of the grinder's power somewhere)")
     return session.record
 
 
