@@ -315,9 +315,14 @@ def _shaper(args) -> int:
     return 0
 
 
+_terminated_by = None  # the signal that asked hexctl to stop, once one has
+
+
 def _exit_on_sigterm(signum, frame):
     # as SystemExit, so that `with` blocks unwind: `hexctl demo` stops the node processes
     # it started (they run in sessions of their own) instead of leaving them running
+    global _terminated_by
+    _terminated_by = signum
     raise SystemExit(128 + signum)
 
 
@@ -363,9 +368,15 @@ def main(argv=None) -> int:
                                      1 if args.once else args.times, args.wait)
     except KeyboardInterrupt:
         return 130
-    except ValueError as exc:
-        print(f"hexctl: {exc}", file=sys.stderr)
-        return 2
+    except Exception as exc:
+        if _terminated_by is not None:
+            # the SystemExit was raised inside a callback from rclpy's C++ (e.g. building a
+            # message), which turns it into another error: still the signal's exit
+            return 128 + _terminated_by
+        if isinstance(exc, ValueError):
+            print(f"hexctl: {exc}", file=sys.stderr)
+            return 2
+        raise
 
 
 if __name__ == "__main__":

@@ -26,3 +26,25 @@ def test_optimized_design_and_plots(tmp_path, capsys):
 def test_unknown_shaper_is_refused(capsys):
     assert main(["shaper", "design", "--type", "posicast"]) == 2
     assert "unknown shaper" in capsys.readouterr().err
+
+
+def test_sigterm_inside_a_native_callback_still_exits_with_its_code(monkeypatch):
+    """CI, with two CPU burners: SIGTERM's SystemExit raised while rclpy's C++ built a
+    message came out as pybind11's TypeError, and `hexctl demo` exited 1, not 143."""
+    import signal
+
+    from hex_control import cli
+
+    def interrupted(args):
+        try:
+            cli._exit_on_sigterm(signal.SIGTERM, None)
+        except SystemExit as exc:  # what pybind11 does to an exception it cannot pass on
+            raise TypeError("Unable to convert function return value to a Python type!") from exc
+
+    monkeypatch.setattr(cli, "_shaper", interrupted)
+    monkeypatch.setattr(cli, "_terminated_by", None)
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        assert main(["shaper", "design", "--type", "zvd"]) == 128 + signal.SIGTERM
+    finally:
+        signal.signal(signal.SIGTERM, previous)
