@@ -1,11 +1,20 @@
 """Limits the plant enforces below every controller (hex_control.plant.limits, issue 21):
-strokes refused, the table's travel clamped, an overload tripped and reset."""
+strokes refused, strut speed and acceleration limited, the table's travel clamped, an
+overload tripped and reset."""
 
 import math
 
+import numpy as np
 import pytest
 
-from hex_control.plant.limits import ForceAxisLimits, check_strokes
+from hex_control.config import config_file
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.kinematics import load_machine
+from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter, check_strokes
+from hex_control.plant.reset_time import pass_strut_lengths_m
+from hex_control.shaping.shapers import design
+
+PERIOD_S = 0.005
 
 
 def test_a_strut_outside_its_stroke_is_refused_and_named():
@@ -37,3 +46,64 @@ def test_an_overload_retracts_until_the_command_asks_for_no_force():
 def test_nonsense_limits_are_refused(bad):
     with pytest.raises(ValueError):
         ForceAxisLimits(**bad)
+
+
+def _run(limiter, targets_m):
+    return np.array([limiter.command(t, PERIOD_S) for t in targets_m])
+
+
+def test_a_jump_becomes_a_move_within_the_servos_speed_and_acceleration():
+    """Issue 21: a strut command 100 mm away (a hostile or broken controller) reaches the
+    servos as a move at <= 0.5 m/s and <= 5 m/s^2 that lands on the target without
+    overshoot, all struts in step (one scale factor: the platform keeps its direction)."""
+    limiter = StrutRateLimiter(0.5, 5.0)
+    limiter.reset(np.full(6, 2.5))
+    target = np.array([2.6, 2.45, 2.5, 2.5, 2.5, 2.5])
+    out = _run(limiter, [target] * 400)
+    speed = np.diff(np.vstack([np.full(6, 2.5), out]), axis=0) / PERIOD_S
+    acceleration = np.diff(np.vstack([np.zeros(6), speed]), axis=0) / PERIOD_S
+    assert np.max(np.abs(speed)) == pytest.approx(0.5, rel=1e-9)
+    assert np.max(np.abs(acceleration)) <= 5.0 * (1 + 1e-9)
+    np.testing.assert_allclose(out[-1], target, atol=1e-12)
+    assert out[:, 0].max() <= 2.6 + 1e-12 and out[:, 1].min() >= 2.45 - 1e-12  # no overshoot
+    moved = out - 2.5
+    np.testing.assert_allclose(moved[:, 1], -0.5 * moved[:, 0], atol=1e-12)  # in step
+    assert limiter.limited > 10
+
+
+def test_a_path_within_the_limits_passes_unchanged():
+    limiter = StrutRateLimiter(0.5, 5.0)
+    t = np.arange(0.0, 2.0, PERIOD_S)
+    path = 2.5 + 0.02 * (1 - np.cos(5 * t))[:, None] * np.linspace(-1, 1, 6)  # starts at rest
+    limiter.reset(path[0])
+    np.testing.assert_allclose(_run(limiter, path[1:]), path[1:], atol=1e-12)
+    assert limiter.limited == 0
+
+
+@pytest.mark.parametrize("bad", [(0.0, 5.0), (0.5, -1.0), (math.inf, 5.0), (0.5, math.nan)])
+def test_nonsense_strut_limits_are_refused(bad):
+    with pytest.raises(ValueError):
+        StrutRateLimiter(*bad)
+
+
+@pytest.mark.parametrize("shaped", [False, True])
+@pytest.mark.parametrize("feed_mm_s", [5.0, 75.0])
+@pytest.mark.parametrize("bead_mm", [150.0, 300.0])
+def test_the_planned_paths_stay_well_inside_the_machine_files_strut_limits(bead_mm, feed_mm_s, shaped):
+    """The NIST hexapod's limits (500 mm/s, 20 m/s^2, not published) are chosen above what a
+    pass's path asks: the reset move of a 300 mm bead peaks near 180 mm/s, the feed's
+    start at 75 mm/s near 10.6 m/s^2 unshaped; the limiter leaves such paths untouched."""
+    machine, document = load_machine(config_file("machines/nist_ingersoll.yaml"))
+    config = load_pass_planner_config("pass_planner.yaml", document)
+    height_mm = config.model.radius_mm * math.sin(config.model.relaxed_angle_rad) + 1.0
+    lengths = pass_strut_lengths_m(machine, config.frame, bead_mm, feed_mm_s, height_mm, config.path,
+                                   design("zvd", 5.0, 0.02) if shaped else None)
+    period_s = config.path.sample_period_s
+    speed = np.diff(lengths, axis=0) / period_s * 1000.0
+    acceleration = np.diff(speed, axis=0) / period_s
+    assert np.max(np.abs(speed)) < 0.4 * machine.strut_speed_max_mm_s
+    assert np.max(np.abs(acceleration)) < 0.6 * machine.strut_acceleration_max_mm_s2
+    limiter = StrutRateLimiter(machine.strut_speed_max_mm_s / 1000.0, machine.strut_acceleration_max_mm_s2 / 1000.0)
+    limiter.reset(lengths[0])
+    np.testing.assert_allclose([limiter.command(row, period_s) for row in lengths[1:]], lengths[1:], atol=1e-12)
+    assert limiter.limited == 0

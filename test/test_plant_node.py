@@ -177,7 +177,8 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     """Issue 21 item 3: 1000 mm on the force axis gave 7.9e4 N and a 50 m strut command drove
     every strut to 50 m. Now the table stops at its travel, the force trips the overload
     (150 N) and retracts the table until the command asks for no force, and a strut command
-    outside the stroke is refused: the struts stay where they were."""
+    outside the stroke is refused: the struts stay where they were; a jump inside it is
+    made a move within the machine file's strut speed and acceleration."""
     from diagnostic_msgs.msg import DiagnosticArray
     from std_msgs.msg import Float64
 
@@ -214,6 +215,14 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     struts.publish(JointState(name=names, position=[50.0] * 6))
     wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0, what="the refusal")
     assert states[-1].position == pytest.approx([2.6] * 6, abs=1e-6)
+
+    start = len(states)  # a jump inside the stroke: a move within the servos' 500 mm/s
+    struts.publish(JointState(name=names, position=[3.0] * 6))
+    wait_until(lambda: states[-1].position[0] == pytest.approx(3.0, abs=1e-6), 10.0, what="the move")
+    assert max(abs(v) for s in states[start:] for v in s.velocity) < 0.5 * 1.05  # the servo's lag adds little
+    wait_until(lambda: int(_plant_counter(diagnostics, "limited_strut_commands") or 0) >= 150, 5.0,
+               what="the limited periods counted")  # 0.4 m at 0.5 m/s: 0.8 s, 160 periods
+    assert int(_plant_counter(diagnostics, "limited_strut_commands")) <= 200  # and none once there
 
 
 def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn):

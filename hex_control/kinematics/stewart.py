@@ -50,8 +50,12 @@ class StewartGeometry:
     strut_distance_min_mm: float
     home_pose: np.ndarray  # (6,)
     tool_offset_mm: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    strut_speed_max_mm_s: float = math.inf  # the plant's servo limits (hex_control.plant.limits)
+    strut_acceleration_max_mm_s2: float = math.inf
 
     def __post_init__(self):
+        if not (self.strut_speed_max_mm_s > 0 and self.strut_acceleration_max_mm_s2 > 0):
+            raise ValueError("need strut_speed_max_mm_s > 0 and strut_acceleration_max_mm_s2 > 0")
         for name in ("base_joints_mm", "platform_joints_mm"):
             array = np.asarray(getattr(self, name), float)
             if array.shape != (6, 3) or not np.all(np.isfinite(array)):
@@ -100,6 +104,8 @@ class StewartGeometry:
             strut_distance_min_mm=float(data.get("strut_distance_min_mm", 0.0)),
             home_pose=np.array(home[:3] + [deg(a) for a in home[3:]], float),
             tool_offset_mm=np.array(data.get("tool_offset_mm", [0, 0, 0]), float),
+            strut_speed_max_mm_s=float(data.get("strut_speed_max_mm_s", math.inf)),
+            strut_acceleration_max_mm_s2=float(data.get("strut_acceleration_max_mm_s2", math.inf)),
         )
 
     @classmethod

@@ -119,7 +119,7 @@ from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.pacing import RealTimePacer
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
-from hex_control.plant.limits import ForceAxisLimits, check_strokes
+from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter, check_strokes
 from hex_control.plant.pru3_machine import DRIVES, Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
@@ -242,7 +242,13 @@ class PlantNode(Node):
             cell, locator = self._cell(machine_geometry, machine_document)
             self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                                        command_timeout_s=p("command_timeout_s"))
-        self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator)
+        limiter = None  # the 3-PRU head: strokes only (its sliders and feed stage are not rate-limited yet)
+        if not is_pru3:
+            speed, acceleration = machine_geometry.strut_speed_max_mm_s, machine_geometry.strut_acceleration_max_mm_s2
+            if math.isfinite(speed * acceleration):
+                limiter = StrutRateLimiter(speed / 1000.0, acceleration / 1000.0)
+        self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator,
+                                  limiter)
         self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)
         if is_pru3:
             self.check_struts = machine.check_command
@@ -449,12 +455,16 @@ class PlantNode(Node):
             self.command_mm = self.get_parameter("retract_mm").value  # amplifier watchdog
         self._apply_strut_commands()
         command_mm = self._limited_command()
+        limiter = self.sim.strut_limiter
+        limited = limiter.limited if limiter is not None else 0
         try:
             state = self.sim.advance(self.period_s, command_mm)
         except ValueError as error:  # the tool left the machine's forward kinematics
             self.diagnostics.count("simulation_errors")
             self.get_logger().error(f"plant step failed: {error}", throttle_duration_sec=1.0)
             return
+        if limiter is not None and limiter.limited > limited:
+            self.diagnostics.count("limited_strut_commands")  # a strut command beyond the servos' speed or acceleration
         if self.monitor is not None:
             self._monitor_pass(state, command_age_s)
         self._publish_state()

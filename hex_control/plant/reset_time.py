@@ -47,12 +47,14 @@ def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.nda
     return strut_lengths(machine, poses) / 1000.0
 
 
-def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
-                       feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
-                       parameters: MachineParameters = MachineParameters(), shaper: Shaper | None = None,
-                       settle_mm: float = 0.01, step_s: float = 1e-3, max_settle_s: float = 30.0) -> ResetTime:
-    if not (length_mm > 0 and feed_mm_s > 0 and settle_mm > 0):
-        raise ValueError("need a positive length, feed and settle band")
+def pass_strut_lengths_m(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
+                         feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
+                         shaper: Shaper | None = None) -> np.ndarray:
+    """The strut (or slider and feed) commands (m), one row per path sample, of one pass's
+    path at constant height: approach, grinding at ``feed_mm_s``, retract and reset, through
+    ``shaper`` if given (its delay appended, holding the end)."""
+    if not (length_mm > 0 and feed_mm_s > 0):
+        raise ValueError("need a positive length and feed")
     grind_t = np.linspace(0.0, length_mm / feed_mm_s, 101)
     path = pass_tool_path(frame, grind_t, np.linspace(0.0, length_mm, 101), np.full(101, height_mm), timing)
     positions = path.positions_mm
@@ -63,7 +65,16 @@ def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame
         padded = np.vstack([positions, np.repeat(positions[-1:], tail, axis=0)])
         positions = np.array([shaping.step(p) for p in padded])
     rpy = np.radians(frame.orientation_rpy_deg)
-    lengths = _lengths_m(machine, positions, rpy)
+    return _lengths_m(machine, positions, rpy)
+
+
+def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
+                       feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
+                       parameters: MachineParameters = MachineParameters(), shaper: Shaper | None = None,
+                       settle_mm: float = 0.01, step_s: float = 1e-3, max_settle_s: float = 30.0) -> ResetTime:
+    if not settle_mm > 0:
+        raise ValueError("need a positive settle band")
+    lengths = pass_strut_lengths_m(machine, frame, length_mm, feed_mm_s, height_mm, timing, shaper)
     end = lengths[-1]
     if isinstance(machine, Pru3Geometry):  # the plant's model of the head: its dynamics
         model = Pru3Machine(machine, parameters=replace(parameters, struts=3, participation=1 / 3), step_s=step_s,

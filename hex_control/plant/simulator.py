@@ -1,7 +1,8 @@
 """The simulated hardware as one object: the force table (with the grinder's compliance,
 runout and sensor), the machine's struts and, when given, the workpiece being ground
 (``GrindingCell``, placed by a ``ToolLocator``), advanced together one control period at a
-time at a fixed internal step. The cell grinds once per period with the tool where the
+time at a fixed internal step; strut commands reach the servos through the machine's speed
+and acceleration limits, when given. The cell grinds once per period with the tool where the
 struts (and the structural mode) put it, and tells the table where the work surface is.
 Units: mm and N for the force axis, m for struts, s.
 """
@@ -15,6 +16,7 @@ import numpy as np
 
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
+from hex_control.plant.limits import StrutRateLimiter
 from hex_control.plant.machine import Machine, MachineParameters
 from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.plant.tool_locator import ToolLocator
@@ -37,7 +39,7 @@ class PlantSimulator:
     def __init__(self, table: ForceTableParameters = ForceTableParameters(),
                  machine: MachineParameters | Machine | Pru3Machine = MachineParameters(), step_s: float = 1e-3, seed: int = 0,
                  table_start_mm: float = -1.0, cell: GrindingCell | None = None,
-                 locator: ToolLocator | None = None):
+                 locator: ToolLocator | None = None, strut_limiter: StrutRateLimiter | None = None):
         if (cell is None) != (locator is None):
             raise ValueError("a grinding cell needs a tool locator, and the other way round")
         self.step_s = step_s
@@ -49,7 +51,8 @@ class PlantSimulator:
             raise ValueError("the machine must step at the plant's internal step")
         self._machine_ready = False
         self.force_command_mm = table_start_mm
-        self.strut_commands_m = None
+        self.strut_commands_m = None  # the struts' targets; the servos get them through the limiter
+        self.strut_limiter = strut_limiter
         self.time_s = 0.0
         self.cell, self.locator = cell, locator
         self.centre_mm = None
@@ -63,6 +66,8 @@ class PlantSimulator:
             raise ValueError(f"need {self.machine.p.struts} finite strut lengths (m)")
         if not self._machine_ready:
             self.machine.reset(lengths)
+            if self.strut_limiter is not None:
+                self.strut_limiter.reset(lengths)
             self._machine_ready = True
         self.strut_commands_m = lengths
 
@@ -72,10 +77,13 @@ class PlantSimulator:
         if steps < 1 or abs(steps * self.step_s - duration_s) > 1e-9:
             raise ValueError("duration must be a whole number of internal steps")
         self.force_command_mm = force_command_mm
+        struts = self.strut_commands_m
+        if self._machine_ready and self.strut_limiter is not None:
+            struts = self.strut_limiter.command(struts, duration_s)
         for _ in range(steps):
             self.table.step(force_command_mm)
             if self._machine_ready:
-                self.machine.step(self.strut_commands_m)
+                self.machine.step(struts)
         self.time_s += steps * self.step_s
         if self.cell is not None and self._machine_ready:
             self.centre_mm = self.locator.centre_mm(self.machine.lengths_m, self.machine.deflection_mm)
