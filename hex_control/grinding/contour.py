@@ -178,17 +178,14 @@ def _cone_envelope(x_mm: np.ndarray, z_mm: np.ndarray, slope: float) -> np.ndarr
 def _lower_envelope(initial: Contour, tip_mm: np.ndarray) -> Contour:
     """min(tip, Z_i) as a polyline, with the points where the two cross inserted, so that
     it is exact between the samples too."""
-    x_new = _crossings(initial.x_mm, initial.z_mm - tip_mm)
+    d = initial.z_mm - tip_mm
+    crossing = np.nonzero((d[:-1] > 0) != (d[1:] > 0))[0]
+    crossing = crossing[(d[crossing] != 0) & (d[crossing + 1] != 0)]
+    fraction = d[crossing] / (d[crossing] - d[crossing + 1])
+    x_new = initial.x_mm[crossing] + fraction * np.diff(initial.x_mm)[crossing]
     x = np.concatenate([initial.x_mm, x_new])
     order = np.argsort(x, kind="stable")
     z = np.concatenate([np.minimum(tip_mm, initial.z_mm), initial.height_at(x_new)])
     parent = np.interp(x, initial.x_mm, initial.parent_mm)
     return Contour(x[order], z[order], parent[order])
 
-
-def _crossings(x_mm: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Where the polyline d(x) changes sign strictly inside a segment (mm)."""
-    crossing = np.nonzero((d[:-1] > 0) != (d[1:] > 0))[0]
-    crossing = crossing[(d[crossing] != 0) & (d[crossing + 1] != 0)]
-    fraction = d[crossing] / (d[crossing] - d[crossing + 1])
-    return x_mm[crossing] + fraction * np.diff(x_mm)[crossing]
