@@ -188,4 +188,3 @@ def _lower_envelope(initial: Contour, tip_mm: np.ndarray) -> Contour:
     z = np.concatenate([np.minimum(tip_mm, initial.z_mm), initial.height_at(x_new)])
     parent = np.interp(x, initial.x_mm, initial.parent_mm)
     return Contour(x[order], z[order], parent[order])
-

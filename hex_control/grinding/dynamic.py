@@ -204,6 +204,10 @@ class PassSimulation:
     multiple_patch_steps: int
 
     @property
+    def peak_force_n(self) -> float:
+        return float(np.max(self.history["force_n"], initial=0.0))
+
+    @property
     def peak_power_w(self) -> float:
         return float(np.max(self.history["power_w"])) if self.history["power_w"].size else 0.0
 

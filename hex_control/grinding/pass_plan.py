@@ -65,7 +65,7 @@ class PassPlan:
         return {"requested_depth_mm": self.requested_depth_mm, "planned_depth_mm": self.planned_depth_mm,
                 "feed_mm_s": self.feed_mm_s, "duration_s": float(h["time_s"][-1]),
                 "wanted_volume_mm3": self.target.removed_mm3, "simulated_volume_mm3": self.simulation.removed_mm3,
-                "peak_force_n": float(np.max(h["force_n"])), "peak_power_w": self.simulation.peak_power_w,
+                "peak_force_n": self.simulation.peak_force_n, "peak_power_w": self.simulation.peak_power_w,
                 "max_cut_mm": self.target.max_cut_mm, "multiple_patch_steps": self.simulation.multiple_patch_steps,
                 "reason": self.reason,
                 "simulations": self.simulations}
@@ -105,8 +105,7 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
         controller = HeightControl if control == "height" else RelaxedAngleControl
         drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], *(gains or ()))
         simulation = simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
-        load = max(float(np.max(simulation.history["force_n"], initial=0.0)) / process.force_max_n,
-                   simulation.peak_power_w / limit_w)
+        load = max(simulation.peak_force_n / process.force_max_n, simulation.peak_power_w / limit_w)
         return (target, simulation), load
 
     def level_top(depth):
@@ -165,7 +164,7 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
 
 def _reduced_because(process: GrindingProcess, first: PassSimulation, limit_w: float) -> str:
     """Which limit the requested pass broke, and by how much."""
-    force_n, power_w = float(np.max(first.history["force_n"], initial=0.0)), first.peak_power_w
+    force_n, power_w = first.peak_force_n, first.peak_power_w
     if power_w / limit_w > force_n / process.force_max_n:
         return (f"stall guard: the requested pass needs {power_w:.0f} W, more than {limit_w:.0f} W "
                 f"({process.power_fraction:.0%} of the grinder's maximum)")
