@@ -15,6 +15,7 @@ import subprocess
 import sys
 import threading
 import time
+import traceback
 from pathlib import Path
 
 import rclpy
@@ -72,14 +73,22 @@ class RosHarness:
         # messages of a 200 Hz stream in 5 s here (the single-threaded one all 1001)
         self.executor = executor_class(context=self.context)
         self._nodes = []
+        self._closing = False
         self._thread = threading.Thread(target=self._spin, daemon=True)
         self._thread.start()
 
     def _spin(self) -> None:
         try:
             self.executor.spin()
-        except Exception:  # noqa: BLE001 - shutdown of the context ends the spin
-            pass
+        except Exception:  # noqa: BLE001 - shutdown of the context ends the spin; else say why
+            if not self._closing:
+                traceback.print_exc()
+                raise
+
+    @property
+    def spinning(self) -> bool:
+        """Whether the executor thread still runs callbacks (nothing else completes a future)."""
+        return self._thread.is_alive()
 
     def add(self, node):
         """Spin an already constructed node (build it with ``context=harness.context``)."""
@@ -136,6 +145,7 @@ class RosHarness:
                    timeout_s, what=f"{publishers} publisher(s), {subscribers} subscriber(s) on {topic}")
 
     def close(self) -> None:
+        self._closing = True
         self.executor.shutdown(timeout_sec=5.0)
         for node in self._nodes:
             node.destroy_node()

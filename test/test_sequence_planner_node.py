@@ -77,7 +77,11 @@ def planner(spawn, tmp_path):
 
 def send(ros, goal, feedback=None):
     client = ActionClient(ros.node("grind_client"), GrindBead, "/sequence_planner/grind_bead")
-    wait_until(ResponseProbe(client), 30.0, what="the action server to answer")
+    probe = ResponseProbe(client)
+    try:
+        wait_until(probe, 30.0, what="the action server to answer")
+    except TimeoutError as exc:  # say which side of discovery failed, for the next one seen
+        raise TimeoutError(f"{exc}: {probe}; the test's executor {'spins' if ros.spinning else 'died'}") from None
     future = client.send_goal_async(goal, feedback_callback=feedback)
     wait_until(future.done, 20.0, what="goal acceptance")
     return future.result()

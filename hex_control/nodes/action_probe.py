@@ -27,11 +27,19 @@ class ResponseProbe:
     def __init__(self, client, interval_s: float = 1.0):
         self.client, self.interval_s = client, float(interval_s)
         self._answers, self._sent_at = [], -float("inf")
+        self.server_seen = False  # whether wait_for_server would have returned
+
+    def __str__(self) -> str:
+        """Where the wait stands, for a timeout's message: seen, probes sent and answered."""
+        answered = sum(answer.done() for answer in self._answers)
+        return (f"server {'seen' if self.server_seen else 'never seen'} in the graph, "
+                f"{len(self._answers)} probe(s) sent, {answered} answered")
 
     def __call__(self) -> bool:
         if any(answer.done() for answer in self._answers):
             return True
-        if self.client.server_is_ready() and time.monotonic() - self._sent_at >= self.interval_s:
+        self.server_seen = self.server_seen or self.client.server_is_ready()
+        if self.server_seen and time.monotonic() - self._sent_at >= self.interval_s:
             nobody = UUID(uuid=list(uuid.uuid4().bytes))
             response = self.client._action_type.Impl.SendGoalService.Response(accepted=True)
             self._answers.append(ClientGoalHandle(self.client, nobody, response).cancel_goal_async())

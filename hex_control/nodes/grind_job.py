@@ -189,7 +189,11 @@ class JobSession:
         self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
-        self.spin_until(ResponseProbe(observer.client), 60.0, "the sequence planner's action server to answer")
+        probe = ResponseProbe(observer.client)
+        try:
+            self.spin_until(probe, 60.0, "the sequence planner's action server to answer")
+        except TimeoutError as exc:
+            raise TimeoutError(f"{exc}: {probe}") from None
         self.spin_until(lambda: record.force, LOOP_START_S, "the plant's first state to be answered (the force loop)")
 
     def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
