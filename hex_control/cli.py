@@ -240,12 +240,12 @@ def _pass(args) -> int:
     model = config.model
     plan = plan_pass(contour, model, args.depth, args.feed, args.control or config.control, config.step_mm,
                      gains=config.gains if args.control in (None, config.control) else None)
-    executed = {"executed, same coefficients": execute_plan(contour, model, plan, config.step_mm)}
+    executed = {"executed, same coefficients": execute_plan(contour, model, plan)}
     for error in args.k1_error:
         process = dataclasses.replace(model.process,
                                       specific_energy_j_mm3=model.process.specific_energy_j_mm3 * (1 + error))
         executed[f"executed, K1 {error:+.0%}"] = execute_plan(contour, dataclasses.replace(model, process=process),
-                                                             plan, config.step_mm)
+                                                             plan)
     output = Path(args.output)
     output.mkdir(parents=True, exist_ok=True)
     plot_pass(output / "pass.png", contour, plan, {name: sim.final for name, sim in executed.items()})

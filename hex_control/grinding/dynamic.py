@@ -27,13 +27,20 @@ truncates removes material the next stage needs, which is the chatter of 6.5
 
 Out of contact the massless disk would jump to its equilibrium; here it relaxes towards it
 with the time constant ``free_swing_s`` (no shorter than the step, which keeps RK4 stable).
-Under force control (a force schedule) nothing holds the spring's rest angle: the force
-loop drives the table to restore the wanted force, so the rest angle runs towards the work
-by the wind-up F R / K_S that force needs, through the table's position loop, and the disk
-follows with that loop's time constant ``approach_time_constant_s`` (eq. 7.3's poles,
-1/(2 pi 9 Hz) + 1/(2 pi 40 Hz) = 21.7 ms); that rate also bounds dtheta/dt while the patch
-is vanishingly small. (An ad-hoc 5 mm/s stood here: executed passes then removed 20-40 %
-less than planned at 40-75 mm/s, where the plant's cell removes what was planned.)
+Under force control (a force schedule) the table sets the spring's rest angle theta_r, and
+the force loop moves it to restore the wanted force through the table's position loop:
+first order with that loop's time constant ``approach_time_constant_s`` (eq. 7.3's poles,
+1/(2 pi 9 Hz) + 1/(2 pi 40 Hz) = 21.7 ms),
+
+    dtheta_r/dt = (theta + F_wanted R / K_S - theta_r) / tau,     F_N = K_S (theta_r - theta) / R,
+
+so the force in contact lags a wanted force that changes faster than the table, and where
+the surface falls away the wound spring keeps the disk on it (the force drops) until the
+table has caught up; off the work the rest angle runs towards it by the wind-up F R / K_S
+per tau. (An ad-hoc 5 mm/s approach stood here first: executed passes removed 20-40 % less
+than planned at 40-75 mm/s. Then the rest angle was taken as always wound for the wanted
+force, so the disk left the surface wherever it fell away: on 0.15 mm of ripple at 75 mm/s
+it lifted off in every trough and removed 16 % less than planned.)
 
 Units: mm, s, rad, N; power W; removal rate mm^3/s.
 """
@@ -90,8 +97,9 @@ class DiskModel:
 class DriveState:
     """What a drive sets at one instant: the centre height H = ``height_mm``; its rate
     dH/dt = ``height_rate_mm_s`` + ``height_rate_per_angle_rate_mm`` * dtheta/dt (a PI on
-    the tip error couples the two); the normal force; the relaxed angle; the tip error e
-    (mm) whose integral the drive keeps; and how far (rad) the free disk is from its
+    the tip error couples the two); the normal force; the relaxed angle; the ``integrand``
+    of the drive's one state (the tip error e in mm for the PI drives, the rest angle's
+    rate in rad/s for a force schedule); and how far (rad) the free disk is from its
     equilibrium, scaled so that relaxing it over the free-swing time is one time constant."""
 
     height_mm: float
@@ -99,7 +107,7 @@ class DriveState:
     height_rate_per_angle_rate_mm: float
     force_n: float
     relaxed_angle_rad: float
-    error_mm: float
+    integrand: float
     free_offset_rad: float
 
 
@@ -130,11 +138,11 @@ class HeightControl(_TipTracking):
                  proportional: float = 20.0, integral_per_s: float = 200.0):
         super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional, integral_per_s)
 
-    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral) -> DriveState:
         r, g1 = self.model.radius_mm, self.g1
         sin, cos = math.sin(angle_rad), math.cos(angle_rad)
         want, slope = self.desired(centre_x_mm - r * cos)
-        height = (self.h0 + g1 * (want + r * sin) + self.g2 * integral_mm_s) / (1 + g1)
+        height = (self.h0 + g1 * (want + r * sin) + self.g2 * integral) / (1 + g1)
         error = want - height + r * sin
         theta0 = self.model.relaxed_angle_rad
         return DriveState(height, (g1 * slope * feed_mm_s + self.g2 * error) / (1 + g1),
@@ -150,11 +158,11 @@ class RelaxedAngleControl(_TipTracking):
                  proportional_rad_mm: float = 0.05, integral_rad_mm_s: float = 5.0):
         super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional_rad_mm, integral_rad_mm_s)
 
-    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral) -> DriveState:
         r = self.model.radius_mm
         want, _ = self.desired(centre_x_mm - r * math.cos(angle_rad))
         error = want - self.h0 + r * math.sin(angle_rad)
-        theta0 = self.model.relaxed_angle_rad - self.g1 * error - self.g2 * integral_mm_s
+        theta0 = self.model.relaxed_angle_rad - self.g1 * error - self.g2 * integral
         # theta_0 falls as theta rises (through e): divide by the loop gain so the free
         # disk relaxes at one time constant whatever G1 is
         offset = (theta0 - angle_rad) / (1 + self.g1 * r * math.cos(angle_rad))
@@ -162,11 +170,10 @@ class RelaxedAngleControl(_TipTracking):
 
 
 class ForceSchedule:
-    """Execution under force control: the centre height and the normal force follow
-    planned trajectories of the feed position x_c (mm); the spring's wind-up is whatever
-    gives that force. Without contact, while a force is wanted, the disk runs towards the
-    work by that force's wind-up with the table's time constant (module docstring); while
-    none is, it rests at the relaxed angle."""
+    """Execution under force control: the centre height and the wanted normal force follow
+    planned trajectories of the feed position x_c (mm); the force loop winds the spring
+    through the table (module docstring). The drive's integral state is the rest angle's
+    change since the start (rad), where the spring was wound for the first wanted force."""
 
     def __init__(self, model: DiskModel, centre_x_mm, height_mm, force_n, initial_angle_rad: float):
         self.model = model
@@ -176,21 +183,21 @@ class ForceSchedule:
             raise ValueError("force schedule: need increasing centre x and finite heights and forces of one length")
         self.h_slope = np.diff(self.h) / np.diff(self.x)
         self.initial_angle_rad = initial_angle_rad
+        self.initial_rest_rad = initial_angle_rad + self._windup_rad(max(float(self.f[0]), 0.0))
 
-    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_mm_s) -> DriveState:
+    def _windup_rad(self, force_n: float) -> float:
+        return force_n * self.model.radius_mm / self.model.spring_n_mm_rad
+
+    def state(self, centre_x_mm, feed_mm_s, angle_rad, integral_rad) -> DriveState:
         i = min(max(int(np.searchsorted(self.x, centre_x_mm)) - 1, 0), self.h_slope.size - 1)
         height = float(np.interp(centre_x_mm, self.x, self.h))
-        # the force as sampled (held between samples): interpolating would ask for force
-        # during the step before the planned contact, and the free disk would dive
-        force = float(self.f[min(int(np.searchsorted(self.x, centre_x_mm, "right")) - 1, self.f.size - 1)]) \
+        # the force as sampled (held between samples), as the force controller receives it
+        wanted = float(self.f[min(int(np.searchsorted(self.x, centre_x_mm, "right")) - 1, self.f.size - 1)]) \
             if centre_x_mm >= self.x[0] else 0.0
-        relaxed = angle_rad + force * self.model.radius_mm / self.model.spring_n_mm_rad
-        if force > 0:  # the force loop pushes the free disk towards the work
-            model = self.model
-            offset = force * model.radius_mm / model.spring_n_mm_rad * model.free_swing_s / model.approach_time_constant_s
-        else:  # no force wanted: the spring is relaxed
-            offset = self.model.relaxed_angle_rad - angle_rad
-        return DriveState(height, float(self.h_slope[i]) * feed_mm_s, 0.0, force, relaxed, 0.0, offset)
+        rest = self.initial_rest_rad + integral_rad
+        rest_rate = (angle_rad + self._windup_rad(max(wanted, 0.0)) - rest) / self.model.approach_time_constant_s
+        return DriveState(height, float(self.h_slope[i]) * feed_mm_s, 0.0, self.model.force_n(angle_rad, rest), rest,
+                          rest_rate, rest - angle_rad)
 
 
 @dataclass(frozen=True)
@@ -213,12 +220,12 @@ class PassSimulation:
 
 
 HISTORY = ("time_s", "centre_x_mm", "tip_x_mm", "tip_z_mm", "height_mm", "angle_rad", "relaxed_angle_rad",
-           "force_n", "power_w", "removal_rate_mm3_s", "patch_area_mm2", "patches", "error_mm")
+           "force_n", "power_w", "removal_rate_mm3_s", "patch_area_mm2", "patches", "integrand")
 
 
 class PassStepper:
     """One pass being ground, one RK4 step at a time: the disk state (angle, the drive's
-    error integral), the time, and the contour as cut so far. ``simulate_pass`` runs it to
+    integral state), the time, and the contour as cut so far. ``simulate_pass`` runs it to
     the end of the bead; a plant advances it by its own periods, changing the drive's
     inputs between steps."""
 
@@ -231,20 +238,20 @@ class PassStepper:
         self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
         self.dt = step_mm / feed_mm_s
         self.free_swing_s = max(model.free_swing_s, self.dt)
-        self.time_s, self.angle_rad, self.integral_mm_s = 0.0, drive.initial_angle_rad, 0.0
+        self.time_s, self.angle_rad, self.integral = 0.0, drive.initial_angle_rad, 0.0
         self.start_centre_x_mm = start_tip_x_mm + model.radius_mm * math.cos(self.angle_rad)
 
     @property
     def contour(self) -> Contour:
         return Contour(self.x, self.z, self.parent)
 
-    def _pose(self, time_s, angle_rad, integral_mm_s):
+    def _pose(self, time_s, angle_rad, integral):
         centre = self.start_centre_x_mm + self.feed_mm_s * time_s
-        s = self.drive.state(centre, self.feed_mm_s, angle_rad, integral_mm_s)
+        s = self.drive.state(centre, self.feed_mm_s, angle_rad, integral)
         return s, DiskPose(centre, s.height_mm, angle_rad, self.model.radius_mm)
 
-    def _rates(self, time_s, angle_rad, integral_mm_s):
-        s, pose = self._pose(time_s, angle_rad, integral_mm_s)
+    def _rates(self, time_s, angle_rad, integral):
+        s, pose = self._pose(time_s, angle_rad, integral)
         patch = self.contact_search(self.x, self.z, pose)
         free_rate = s.free_offset_rad / self.free_swing_s
         if patch.length_mm == 0:
@@ -265,24 +272,24 @@ class PassStepper:
 
     def evaluate(self):
         """(dtheta/dt, DriveState, DiskPose, ContactPatch) now."""
-        return self._rates(self.time_s, self.angle_rad, self.integral_mm_s)
+        return self._rates(self.time_s, self.angle_rad, self.integral)
 
     def step(self, now=None) -> None:
         """One RK4 step of ``dt``, then the truncation; ``now`` is ``evaluate()``'s result if
         the caller has it already."""
-        dt, t, angle, integral = self.dt, self.time_s, self.angle_rad, self.integral_mm_s
+        dt, t, angle, integral = self.dt, self.time_s, self.angle_rad, self.integral
         k1, s1, pose, _ = now or self.evaluate()
-        k2, s2, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k1, integral + dt / 2 * s1.error_mm)
-        k3, s3, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k2, integral + dt / 2 * s2.error_mm)
-        k4, s4, _, _ = self._rates(t + dt, angle + dt * k3, integral + dt * s3.error_mm)
+        k2, s2, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k1, integral + dt / 2 * s1.integrand)
+        k3, s3, _, _ = self._rates(t + dt / 2, angle + dt / 2 * k2, integral + dt / 2 * s2.integrand)
+        k4, s4, _, _ = self._rates(t + dt, angle + dt * k3, integral + dt * s3.integrand)
         self.angle_rad = angle + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        self.integral_mm_s = integral + dt / 6 * (s1.error_mm + 2 * s2.error_mm + 2 * s3.error_mm + s4.error_mm)
+        self.integral = integral + dt / 6 * (s1.integrand + 2 * s2.integrand + 2 * s3.integrand + s4.integrand)
         self.time_s = t + dt
         if not 0 < self.angle_rad < math.pi / 2:
             raise FloatingPointError(f"integration diverged at tip x {pose.tip_x_mm:.1f} mm (disk angle "
                                      f"{self.angle_rad:.3g} rad); use a smaller step_mm than {self.step_mm}")
         # between steps: the swept tip path and the face now; all above them is gone
-        _, new = self._pose(self.time_s, self.angle_rad, self.integral_mm_s)
+        _, new = self._pose(self.time_s, self.angle_rad, self.integral)
         self._truncate([pose.tip_x_mm, new.tip_x_mm, new.centre_x_mm], [pose.tip_z_mm, new.tip_z_mm, new.centre_z_mm])
 
 
@@ -320,5 +327,5 @@ def _record(rows, model, time, pose, s, patch):
                         ("relaxed_angle_rad", s.relaxed_angle_rad), ("force_n", force),
                         ("power_w", model.power_w(force)), ("removal_rate_mm3_s", model.removal_rate_mm3_s(force)),
                         ("patch_area_mm2", patch.area_mm2(model.process.bead_width_mm)),
-                        ("patches", patch.patches), ("error_mm", s.error_mm)):
+                        ("patches", patch.patches), ("integrand", s.integrand)):
         rows[name].append(value)

@@ -171,11 +171,15 @@ def _reduced_because(process: GrindingProcess, first: PassSimulation, limit_w: f
     return f"force guard: the requested pass needs {force_n:.0f} N, more than F_max {process.force_max_n:g} N"
 
 
-def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.1) -> PassSimulation:
+def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.05) -> PassSimulation:
     """Grind ``contour`` under force control with the plan's force and height trajectories
-    and the process ``model`` (which may differ from the one the plan assumed)."""
+    and the process ``model`` (which may differ from the one the plan assumed), at
+    ``step_mm`` of feed per step or less: no step longer than a quarter of the force loop's
+    time constant. (At 0.1 mm a rippled bead's landings were under-resolved: up to 11 %
+    more than at 0.025 mm; at 0.05 mm within 1 % of it.)"""
     drive = ForceSchedule(model, plan.centre_x_mm, plan.height_mm, plan.force_n,
                           float(plan.simulation.history["angle_rad"][0]))
+    step_mm = min(step_mm, plan.feed_mm_s * model.approach_time_constant_s / 4)
     return simulate_pass(contour, model, drive, plan.feed_mm_s, step_mm=step_mm)
 
 

@@ -50,7 +50,7 @@ class _MachineDrivenStepper(PassStepper):
         self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
         self.free_swing_s = max(model.free_swing_s, control_period_s)
         self.table_contact_mm = table_contact_mm
-        self.time_s, self.angle_rad, self.integral_mm_s = 0.0, model.relaxed_angle_rad, 0.0
+        self.time_s, self.angle_rad, self.integral = 0.0, model.relaxed_angle_rad, 0.0
         self.segment = (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
         self.table_mm = table_contact_mm
         self.dt, self.feed_mm_s, self.step_mm = 1.0, 0.0, math.inf
@@ -62,7 +62,7 @@ class _MachineDrivenStepper(PassStepper):
         """Table position at which the spring is relaxed at the disk's present angle."""
         return self.table_contact_mm + self.model.radius_mm * (self.angle_rad - self.model.relaxed_angle_rad)
 
-    def _pose(self, time_s, angle_rad, integral_mm_s):
+    def _pose(self, time_s, angle_rad, integral):
         start, duration, x0, h0, x1, h1 = self.segment
         f = (time_s - start) / duration
         centre, height = x0 + f * (x1 - x0), h0 + f * (h1 - h0)
