@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from hex_control.grinding.coefficients import PassModelUpdate, fit_power_law, measured_specific_energy
+from hex_control.grinding.coefficients import (PassModelUpdate, achievable_mean_force_n, fit_power_law,
+                                              measured_specific_energy)
 from hex_control.grinding.model import GrindingProcess
 
 
@@ -58,3 +59,39 @@ def test_a_restored_update_is_where_it_was_logged():
     assert update.process.specific_energy_j_mm3 == 12.3 and update.solved_with == 12.0
     assert update.solved_process.specific_energy_j_mm3 == 12.0 and update.nominal == 10.0
     assert not update.observe(12.5) and update.observe(12.7)  # threshold against the solved 12.0
+
+
+def test_the_force_a_guarded_plan_reaches_is_the_one_that_cuts_its_planned_depth():
+    """Issue 20 item 4: a plan whose force guard cut the commanded depth to 76 % (the first
+    pass of the 20 seeded jobs at 60 N, 9.8 mm/s) reaches the force that cuts 76 % as deep
+    in eq. 4.6; a plan that peaks below F_max could take F_max / peak times more."""
+    process = GrindingProcess()
+    wanted = process.cut_depth_mm(60.0, 9.8)
+    guarded = achievable_mean_force_n(process, 60.0, wanted, 0.76 * wanted, 60.0)
+    assert process.cut_depth_mm(guarded, 9.8) == pytest.approx(0.76 * wanted, rel=1e-9)
+    zero_cut = process.zero_cut_force_n()
+    assert guarded == pytest.approx(zero_cut + 0.76 * (60.0 - zero_cut), rel=1e-9)  # linear for beta = 0
+    assert achievable_mean_force_n(process, 30.0, 0.1, 0.1, 40.0) == pytest.approx(45.0)
+    assert achievable_mean_force_n(process, 30.0, 0.1, 0.1, 20.0) == 60.0  # never beyond F_max
+    assert achievable_mean_force_n(process, 30.0, 0.1, -0.01, 40.0) == pytest.approx(zero_cut * 1.5)
+    with pytest.raises(ValueError):
+        achievable_mean_force_n(process, 30.0, 0.1, 0.1, float("nan"))
+
+
+def test_the_force_limit_triggers_a_re_solve_and_is_solved_with():
+    update = PassModelUpdate(GrindingProcess(force_max_n=60.0), threshold=0.05)
+    assert not update.observe_force_limit(58.0)
+    assert update.observe_force_limit(50.0) and update.process.force_max_n == 50.0
+    assert update.solved_process.force_max_n == 60.0
+    update.mark_solved()
+    assert update.solved_process.force_max_n == 50.0 and not update.needs_solve
+    assert not update.observe(10.2)  # K1 alone has not moved enough
+    update.observe_force_limit(90.0)
+    assert update.process.force_max_n == 60.0  # F_max is the machine's
+    update.observe_force_limit(1.0)
+    zero_cut = update.process.zero_cut_force_n()
+    assert update.process.force_max_n == pytest.approx(zero_cut + 0.5 * (60.0 - zero_cut))
+    restored = PassModelUpdate(GrindingProcess(force_max_n=60.0), threshold=0.05)
+    restored.restore(10.4, 10.0, 48.0, 50.0)
+    assert restored.solved_process.force_max_n == 50.0 and restored.process.force_max_n == 48.0
+    assert restored.process.specific_energy_j_mm3 == 10.4 and not restored.needs_solve

@@ -56,9 +56,10 @@ def test_model_updates_are_logged_and_read_back_without_changing_the_state(tmp_p
     job = GrindingJob(JobGoal("j5", 1.9, 12.5, 300.0, 120.0), POLICY, Charges(), path)
     assert read_model(path) is None
     pending = run(job, np.random.default_rng(1), stop_after=1)
-    job.update_model(10.4, 10.0)
-    job.update_model(12.1, 12.1)
-    assert read_model(path) == {"type": "model", "specific_energy_j_mm3": 12.1, "solved_with_j_mm3": 12.1}
+    job.update_model(10.4, 10.0, 60.0, 60.0)
+    job.update_model(12.1, 12.1, 48.0, 50.0)
+    assert read_model(path) == {"type": "model", "specific_energy_j_mm3": 12.1, "solved_with_j_mm3": 12.1,
+                                "force_max_n": 48.0, "solved_force_max_n": 50.0}
     resumed = GrindingJob.resume(path, POLICY, Charges())
     assert resumed.state == job.state and resumed.decide() == pending
 

@@ -8,6 +8,8 @@
   moved far enough to re-solve the policy (the thesis had to regenerate its whole solution
   offline when the process changed, 8.1). The pass-rate load predictor smooths these
   observations in the end-to-end graph.
+- From each plan of the pass planner: the force its plans can reach on the bead as it
+  is (``achievable_mean_force_n``), which the policy takes as its F_max (issue 20).
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import brentq
 
 from hex_control.grinding.model import WATT, GrindingProcess
 
@@ -67,18 +70,43 @@ def plausible_specific_energy(estimate_j_mm3: float, nominal_j_mm3: float) -> bo
             and nominal_j_mm3 / PLAUSIBLE_K1_FACTOR <= estimate_j_mm3 <= nominal_j_mm3 * PLAUSIBLE_K1_FACTOR)
 
 
+def achievable_mean_force_n(process: GrindingProcess, force_n: float, commanded_depth_mm: float,
+                            planned_depth_mm: float, planned_peak_force_n: float) -> float:
+    """The highest force (N) of the static model (eq. 4.6) that the pass planner can plan on
+    the bead as it now is, from one of its plans: the force that removes the depth it
+    planned (its force guard may have cut the commanded depth so that no point of the
+    pass needs more than F_max), scaled by F_max over the plan's peak force. A rough bead
+    needs force peaks above the mean to cut its crests, so its mean force stays below F_max."""
+    values = (force_n, commanded_depth_mm, planned_depth_mm, planned_peak_force_n)
+    if not all(math.isfinite(v) for v in values) or force_n <= 0 or commanded_depth_mm <= 0 or planned_peak_force_n <= 0:
+        raise ValueError(f"need a positive force, commanded depth and peak force, and a finite planned depth: {values}")
+    zero_cut = process.zero_cut_force_n()
+    if force_n <= zero_cut:
+        raise ValueError(f"force {force_n:g} N removes nothing (zero-cut force {zero_cut:.1f} N)")
+    # the depth is the removal numerator over the feed (eq. 4.6): the feed cancels
+    wanted = float(process.removal_numerator(force_n)) * min(max(planned_depth_mm / commanded_depth_mm, 0.0), 1.0)
+    planned_force = brentq(lambda f: float(process.removal_numerator(f)) - wanted, zero_cut, force_n) \
+        if wanted > 0 else zero_cut
+    return min(planned_force * process.force_max_n / planned_peak_force_n, process.force_max_n)
+
+
 @dataclass
 class PassModelUpdate:
-    """Holds the planner's process model; ``observe`` folds in a coefficient estimate and
-    returns True when it moved more than ``threshold`` (relative) since the last solve."""
+    """Holds the planner's process model: K1 and the force the plans can reach (F_max of
+    the policy, ``achievable_mean_force_n``); ``observe`` and ``observe_force_limit`` fold in
+    an estimate and return True when the model has moved more than ``threshold``
+    (relative) since the last solve."""
 
     process: GrindingProcess
     threshold: float = 0.05
     solved_with: float = dataclasses.field(init=False)
     nominal: float = dataclasses.field(init=False)  # K1 of the process it started with (J/mm^3)
+    solved_force_max_n: float = dataclasses.field(init=False)
+    nominal_force_max_n: float = dataclasses.field(init=False)  # the machine's F_max (N)
 
     def __post_init__(self):
         self.solved_with = self.nominal = self.process.specific_energy_j_mm3
+        self.solved_force_max_n = self.nominal_force_max_n = self.process.force_max_n
 
     def plausible(self, specific_energy_j_mm3: float) -> bool:
         return plausible_specific_energy(specific_energy_j_mm3, self.nominal)
@@ -88,22 +116,47 @@ class PassModelUpdate:
             raise ValueError(f"K1 estimate {specific_energy_j_mm3!r} J/mm^3 is not within {PLAUSIBLE_K1_FACTOR:g}x "
                              f"of the nominal {self.nominal:g}")
         self.process = dataclasses.replace(self.process, specific_energy_j_mm3=specific_energy_j_mm3)
-        return abs(specific_energy_j_mm3 / self.solved_with - 1.0) > self.threshold
+        return self.needs_solve
 
-    def mark_solved(self, specific_energy_j_mm3: float | None = None) -> None:
-        """The policy is now solved with this K1 (J/mm^3; the latest estimate if None)."""
-        self.solved_with = self.process.specific_energy_j_mm3 if specific_energy_j_mm3 is None else specific_energy_j_mm3
+    def observe_force_limit(self, force_max_n: float) -> bool:
+        """The force (N) the plans can reach, kept within F_max and at least halfway from the
+        zero-cut force to it (one odd plan must not leave the policy nearly nothing to do)."""
+        if not math.isfinite(force_max_n):
+            raise ValueError(f"force limit {force_max_n!r} N is not finite")
+        zero_cut = self.process.zero_cut_force_n()
+        floor = zero_cut + 0.5 * (self.nominal_force_max_n - zero_cut)
+        self.process = dataclasses.replace(self.process, force_max_n=min(max(force_max_n, floor),
+                                                                         self.nominal_force_max_n))
+        return self.needs_solve
+
+    @property
+    def needs_solve(self) -> bool:
+        """Whether K1 or the force limit moved more than ``threshold`` since the last solve."""
+        return (abs(self.process.specific_energy_j_mm3 / self.solved_with - 1.0) > self.threshold
+                or abs(self.process.force_max_n / self.solved_force_max_n - 1.0) > self.threshold)
+
+    def mark_solved(self, process: GrindingProcess | None = None) -> None:
+        """The policy is now solved with this process's K1 and F_max (the latest if None)."""
+        process = process or self.process
+        self.solved_with, self.solved_force_max_n = process.specific_energy_j_mm3, process.force_max_n
 
     @property
     def solved_process(self) -> GrindingProcess:
         """The process the current policy was solved with."""
-        return dataclasses.replace(self.process, specific_energy_j_mm3=self.solved_with)
+        return dataclasses.replace(self.process, specific_energy_j_mm3=self.solved_with,
+                                   force_max_n=self.solved_force_max_n)
 
-    def restore(self, specific_energy_j_mm3: float, solved_with_j_mm3: float) -> None:
-        """Back to a logged state (a restarted planner): the latest estimate and the K1 of the solve."""
+    def restore(self, specific_energy_j_mm3: float, solved_with_j_mm3: float, force_max_n: float | None = None,
+                solved_force_max_n: float | None = None) -> None:
+        """Back to a logged state (a restarted planner): the latest estimates and those of the
+        solve (K1 in J/mm^3, force limits in N; a log without force limits keeps F_max)."""
         self.observe(solved_with_j_mm3)
+        if solved_force_max_n is not None:
+            self.observe_force_limit(solved_force_max_n)
         self.mark_solved()
         self.observe(specific_energy_j_mm3)
+        if force_max_n is not None:
+            self.observe_force_limit(force_max_n)
 
 
 assert WATT == 1000.0  # K1 J/mm^3 against power in W: the unit bookkeeping above relies on it

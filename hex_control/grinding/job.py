@@ -152,11 +152,14 @@ class GrindingJob:
                       "completed": completed, "material_mm": x, "time_remaining_s": t,
                       "in_path_charge": self.charges.in_path.per_pass + (finish if last else 0.0)})
 
-    def update_model(self, specific_energy_j_mm3: float, solved_with_j_mm3: float) -> None:
+    def update_model(self, specific_energy_j_mm3: float, solved_with_j_mm3: float, force_max_n: float,
+                     solved_force_max_n: float) -> None:
         """Log the planner's process model: the latest K1 estimate (J/mm^3; commands' cut
-        depths use it) and the K1 the current policy was solved with."""
+        depths use it) and the force the plans can reach (N), and those the current policy
+        was solved with."""
         self._record({"type": "model", "specific_energy_j_mm3": specific_energy_j_mm3,
-                      "solved_with_j_mm3": solved_with_j_mm3})
+                      "solved_with_j_mm3": solved_with_j_mm3, "force_max_n": force_max_n,
+                      "solved_force_max_n": solved_force_max_n})
 
     def end(self, reason: str, message: str = "") -> None:
         if not self.finished:

@@ -16,6 +16,10 @@ The prediction made from pass k's measured K1 is the one for pass k+1: while a p
 publishes, the decision after pass k waits for it (the prediction stamped like the pass
 result; at most ``prediction_wait_s``), so that which K1 a pass is planned with does not
 depend on which message arrives first. Each PassCommand carries that K1 down.
+The pass planner's plan of each pass (/grinding/force_trajectory) says how much force its
+plans can reach on the bead as it now is (its force guard keeps every point of a pass at
+or below F_max, so on a rough bead the mean force stays lower); the policy is re-solved
+with that as its F_max when it moves more than ``resolve_threshold``.
 A command the pass planner has not acknowledged on /pass_planner/status (received,
 planned or refused) within ``command_resend_s`` is published again until it does.
 
@@ -31,6 +35,7 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
 import yaml
 from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Time as TimeMsg
@@ -39,7 +44,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 
 from hex_control.config import config_file
-from hex_control.grinding.coefficients import PassModelUpdate
+from hex_control.grinding.coefficients import PassModelUpdate, achievable_mean_force_n
 from hex_control.grinding.config import load_planner_config, parse_planner_config
 from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, GrindingJob, JobGoal,
                                       new_job_id, read_goal, read_model, unfinished_logs)
@@ -50,7 +55,7 @@ from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import in_background, run_node, wall_timer
 from hex_control_msgs.action import GrindBead
-from hex_control_msgs.msg import LoadPrediction, PassCommand, PassResult
+from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
 REASONS = {DONE: GrindBead.Result.DONE, QUIT: GrindBead.Result.QUIT, CANCELLED: GrindBead.Result.CANCELLED,
            ABORTED: GrindBead.Result.ABORTED, REJECTED: GrindBead.Result.REJECTED}
@@ -78,7 +83,8 @@ PARAMETERS = {
                            "cut model"),
     "job_dir": Spec(os.path.expanduser("~/.local/state/hex_control/jobs"), "directory of the job logs a "
                     "restarted planner resumes from"),
-    "resolve_threshold": Spec(0.05, "relative change of K1 that triggers a re-solve", 0.0, 10.0, read_only=False),
+    "resolve_threshold": Spec(0.05, "relative change of K1 or of the force the plans reach that triggers a "
+                              "re-solve", 0.0, 10.0, read_only=False),
     "pass_timeout_s": Spec(300.0, "wall time to wait for a pass result before aborting the job", 1.0, 86_400.0,
                            read_only=False),
     "command_resend_s": Spec(5.0, "wall time after which a pass command the pass planner has not acknowledged "
@@ -112,6 +118,7 @@ class SequencePlannerNode(Node):
         self._advance_after_solve = False  # a decision waits for the policy being solved
         self._sent_at = None
         self._unacknowledged = None  # (the latest PassCommand until the pass planner has it, wall s sent)
+        self._command = None  # the latest PassCommand sent
         self._awaited_stamp = None  # (stamp of the pass result whose K1 prediction is awaited, since)
         self._last_prediction_stamp = None
         self._result_stamp = TimeMsg()  # of the latest pass result applied (plant time)
@@ -122,6 +129,7 @@ class SequencePlannerNode(Node):
         self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
         self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_prediction, 10)
         self.create_subscription(DiagnosticStatus, "/pass_planner/status", self._on_pass_planner_status, LATCHED)
+        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    handle_accepted_callback=self._on_accepted,
@@ -189,8 +197,9 @@ class SequencePlannerNode(Node):
         goal = read_goal(logs[-1])
         process, self.charges = self._configured(goal.config_overrides)
         self.model_update = PassModelUpdate(process, self.get_parameter("resolve_threshold").value)
-        if model := read_model(logs[-1]):  # plan with the K1 estimates the job had before the restart
-            self.model_update.restore(model["specific_energy_j_mm3"], model["solved_with_j_mm3"])
+        if model := read_model(logs[-1]):  # plan with the estimates the job had before the restart
+            self.model_update.restore(model["specific_energy_j_mm3"], model["solved_with_j_mm3"],
+                                      model.get("force_max_n"), model.get("solved_force_max_n"))
         _, policy = self._policy_for(goal, self.model_update.solved_process)
         self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.get_logger().info(f"resumed job {goal.job_id} at pass {self.job.state.passes} "
@@ -263,6 +272,7 @@ class SequencePlannerNode(Node):
         command.time_remaining_s = decision["time_remaining_s"]
         command.expected_penalty = decision["expected_penalty"]
         self.command_pub.publish(command)
+        self._command = command
         self._sent_at = time.monotonic()
         self._unacknowledged = (command, self._sent_at)
         feedback = GrindBead.Feedback(pass_index=command.pass_index, material_remaining_mm=command.material_remaining_mm,
@@ -364,22 +374,46 @@ class SequencePlannerNode(Node):
         if not self.model_update.plausible(msg.prediction):
             self.diagnostics.count("rejected_predictions")
         else:
-            if self.model_update.observe(msg.prediction) and self.solving is None:
-                self._solve_then(self.job.goal, self.model_update.process, self._resolved)
-            self.job.update_model(msg.prediction, self.model_update.solved_with)
+            self.model_update.observe(msg.prediction)
+            self._model_changed()
         self._last_prediction_stamp = _stamp_ns(msg.header.stamp)
         if self._awaited_stamp and self._awaited_stamp[0] == self._last_prediction_stamp:
             self._awaited_stamp = None
             self._advance()
 
+    def _on_trajectory(self, msg: ForceTrajectory) -> None:
+        command = self._command
+        if (self.job is None or self.job.finished or command is None or msg.job_id != command.job_id
+                or msg.pass_index != command.pass_index):
+            return
+        forces = np.asarray(msg.normal_force_n, float)
+        peak = float(np.max(forces)) if forces.size else math.nan  # NaN if any is: refused below
+        try:
+            limit = achievable_mean_force_n(self.model_update.process, command.normal_force_n, command.cut_depth_mm,
+                                            msg.planned_cut_depth_mm, peak)
+        except ValueError as exc:  # a plan with no force, or a command that cuts nothing
+            self.diagnostics.count("unused_trajectories")
+            self.get_logger().debug(f"plan of pass {msg.pass_index} says nothing about the force limit: {exc}")
+            return
+        self.model_update.observe_force_limit(limit)
+        self._model_changed()
+
+    def _model_changed(self) -> None:
+        """Log the process model; re-solve when it moved (after the solve running, if one is)."""
+        update = self.model_update
+        self.job.update_model(update.process.specific_energy_j_mm3, update.solved_with, update.process.force_max_n,
+                              update.solved_force_max_n)
+        if update.needs_solve and self.solving is None:
+            self._solve_then(self.job.goal, update.process, self._resolved)
+
     def _resolved(self, process, policy) -> None:
         if self.job is None or self.job.finished:
             return
         self.job.policy = policy
-        self.model_update.mark_solved(process.specific_energy_j_mm3)
-        self.job.update_model(self.model_update.process.specific_energy_j_mm3, self.model_update.solved_with)
-        self.get_logger().info(f"K1 now {process.specific_energy_j_mm3:.3f} J/mm^3: policy re-solved in "
-                               f"{self.last_solve_ms:.0f} ms")
+        self.model_update.mark_solved(process)
+        self.get_logger().info(f"K1 now {process.specific_energy_j_mm3:.3f} J/mm^3, force limit "
+                               f"{process.force_max_n:.1f} N: policy re-solved in {self.last_solve_ms:.0f} ms")
+        self._model_changed()
 
     def _watchdog(self) -> None:
         if self._awaited_stamp and time.monotonic() - self._awaited_stamp[1] > self.get_parameter(
