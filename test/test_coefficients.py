@@ -95,3 +95,16 @@ def test_the_force_limit_triggers_a_re_solve_and_is_solved_with():
     restored.restore(10.4, 10.0, 48.0, 50.0)
     assert restored.solved_process.force_max_n == 50.0 and restored.process.force_max_n == 48.0
     assert restored.process.specific_energy_j_mm3 == 10.4 and not restored.needs_solve
+
+
+def test_a_plan_is_read_against_the_machines_f_max_not_the_policys_limit():
+    """After a guarded plan lowered the policy's limit to about 47 N, a plan at that force
+    peaking at the machine's 60 N says the same 47 N, not 47 * 47/60 (a bug seen on the
+    seeded jobs: the limit fell pass by pass to its floor)."""
+    update = PassModelUpdate(GrindingProcess(force_max_n=60.0))
+    process = update.process
+    update.observe_plan(60.0, 0.5, 0.38, 60.0)
+    limit = update.process.force_max_n
+    assert limit == pytest.approx(achievable_mean_force_n(process, 60.0, 0.5, 0.38, 60.0)) and limit < 50.0
+    update.observe_plan(limit, 0.2, 0.2, 60.0)
+    assert update.process.force_max_n == pytest.approx(limit)

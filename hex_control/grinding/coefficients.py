@@ -118,6 +118,14 @@ class PassModelUpdate:
         self.process = dataclasses.replace(self.process, specific_energy_j_mm3=specific_energy_j_mm3)
         return self.needs_solve
 
+    def observe_plan(self, force_n: float, commanded_depth_mm: float, planned_depth_mm: float,
+                     planned_peak_force_n: float) -> bool:
+        """Fold in the force a plan of the pass planner reaches (``achievable_mean_force_n``
+        against the machine's F_max, not the limit the policy has now)."""
+        machine = dataclasses.replace(self.process, force_max_n=self.nominal_force_max_n)
+        return self.observe_force_limit(achievable_mean_force_n(machine, force_n, commanded_depth_mm,
+                                                                planned_depth_mm, planned_peak_force_n))
+
     def observe_force_limit(self, force_max_n: float) -> bool:
         """The force (N) the plans can reach, kept within F_max and at least halfway from the
         zero-cut force to it (one odd plan must not leave the policy nearly nothing to do)."""

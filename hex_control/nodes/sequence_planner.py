@@ -44,7 +44,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 
 from hex_control.config import config_file
-from hex_control.grinding.coefficients import PassModelUpdate, achievable_mean_force_n
+from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config, parse_planner_config
 from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, GrindingJob, JobGoal,
                                       new_job_id, read_goal, read_model, unfinished_logs)
@@ -389,13 +389,11 @@ class SequencePlannerNode(Node):
         forces = np.asarray(msg.normal_force_n, float)
         peak = float(np.max(forces)) if forces.size else math.nan  # NaN if any is: refused below
         try:
-            limit = achievable_mean_force_n(self.model_update.process, command.normal_force_n, command.cut_depth_mm,
-                                            msg.planned_cut_depth_mm, peak)
+            self.model_update.observe_plan(command.normal_force_n, command.cut_depth_mm, msg.planned_cut_depth_mm, peak)
         except ValueError as exc:  # a plan with no force, or a command that cuts nothing
             self.diagnostics.count("unused_trajectories")
             self.get_logger().debug(f"plan of pass {msg.pass_index} says nothing about the force limit: {exc}")
             return
-        self.model_update.observe_force_limit(limit)
         self._model_changed()
 
     def _model_changed(self) -> None:
