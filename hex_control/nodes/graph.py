@@ -150,11 +150,31 @@ class NodeGraph:
             codes[n] = stop_hung(self.processes.pop(n), max(deadline - time.monotonic(), 0.0))
         return codes
 
+    def dump_tracebacks(self, timeout_s: float = 5.0) -> list[str]:
+        """SIGUSR1 to every running node (each writes its threads' tracebacks into its log,
+        :func:`hex_control.nodes.runtime.init`); waits until every log has grown by them, at
+        most ``timeout_s``. The names of the nodes whose logs did not grow. A node still
+        importing, before its handler is installed, dies of the signal: for a graph about to be
+        stopped."""
+        sizes = {name: self._log_path(name).stat().st_size for name, process in self.processes.items()
+                 if process.poll() is None}
+        for name in sizes:
+            self.processes[name].send_signal(signal.SIGUSR1)
+        end = time.monotonic() + timeout_s
+        while (silent := [name for name, size in sizes.items() if self._log_path(name).stat().st_size == size]) \
+                and time.monotonic() < end:
+            time.sleep(0.05)
+        return silent
+
     def dead(self) -> dict[str, int]:
         """Processes that have exited on their own, with their exit codes."""
         return {name: p.returncode for name, p in self.processes.items() if p.poll() is not None}
 
-    def log_tail(self, name: str, lines: int = 20) -> str:
+    def _log_path(self, name: str) -> Path:
+        """The log of the node's latest start."""
         count = self.starts.get(name, 1) - 1
-        path = self.log_dir / f"{name}{'-' + str(count) if count else ''}.log"
+        return self.log_dir / f"{name}{'-' + str(count) if count else ''}.log"
+
+    def log_tail(self, name: str, lines: int = 20) -> str:
+        path = self._log_path(name)
         return "\n".join(path.read_text(errors="replace").splitlines()[-lines:]) if path.exists() else ""

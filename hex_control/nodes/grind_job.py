@@ -201,7 +201,10 @@ class JobSession:
         try:
             self._wait_for_graph()
         except TimeoutError as exc:  # nothing has been asked of the graph yet: start it again, once
-            print(f"the graph did not start ({exc}); starting it again", file=sys.stderr, flush=True)
+            silent = self.graph.dump_tracebacks()  # where each node waits, into logs/<node>.log
+            print(f"the graph did not start ({exc}); its nodes' tracebacks are in {self.graph.log_dir}"
+                  f"{' (none from ' + ', '.join(silent) + ')' if silent else ''}; starting it again",
+                  file=sys.stderr, flush=True)
             self.graph.stop()
             record.contours.clear()
             record.force.clear()
