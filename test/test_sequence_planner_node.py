@@ -134,8 +134,8 @@ def test_a_lost_pass_command_is_sent_again_until_the_pass_planner_has_it(ros, pl
     assert [executor.commanded.count(i) for i in (0, 1)] == [2, 2]
     assert [index for _, index in executor.answered] == [0, 1]
     wait_until(lambda: planner_count(diagnostics, "commands_resent") >= 3, 5.0, what="three resends in diagnostics")
-    time.sleep(3.0)  # pass 2 is never acknowledged (held): it goes on being sent, every 1.5 s
-    assert executor.commanded.count(2) >= 3
+    # pass 2 is never acknowledged (held): it goes on being sent, every 1.5 s
+    wait_until(lambda: executor.commanded.count(2) >= 3, 20.0, what="pass 2 sent a third time")
 
 
 def test_a_bead_too_high_for_the_deadline_ends_by_the_policy(ros, planner):
@@ -223,23 +223,15 @@ def test_a_long_solve_runs_off_the_executor_and_can_be_cancelled(ros, planner):
 
 def test_sigint_amid_a_long_solve_exits_at_once(ros, planner):
     """Issue 21 item 4: SIGINT hung for as long as a computation ran. The solve runs on a
-    daemon thread: the node exits cleanly in less than half the time the same solve takes
-    here (measured afterwards in this process, so the ratio holds on a loaded machine)."""
+    daemon thread: the node exits cleanly while it still runs and says it abandoned it."""
     process = planner()
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
     send(ros, GrindBead.Goal(job_id="long", bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0,
                              deadline_s=1800.0))
     process.process.send_signal(signal.SIGINT)
-    start = time.monotonic()
     assert process.process.wait(timeout=120.0) == 0
-    exit_s = time.monotonic() - start
     assert planner_count(diagnostics, "solves") == 0  # it did not wait for the solve
-    from hex_control.grinding.sdp import solve
-    process_model, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
-    process_model = dataclasses.replace(process_model, bead_width_mm=12.5, bead_length_mm=300.0)
-    start = time.monotonic()
-    solve(process_model, charges, grid.covering(1800.0, 1.0), cut_model)
-    assert exit_s < (time.monotonic() - start) / 2
+    assert "exiting amid 1 background computation(s): abandoned" in process.output()
 
 
 def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path):

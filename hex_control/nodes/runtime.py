@@ -90,7 +90,8 @@ def _exit_past_background_work(code: int) -> None:
     """Exit now if a background computation still runs: at interpreter shutdown a daemon
     thread inside native code (scipy's C++ FFT) is unwound and aborts the process (seen as
     'terminate called without an active exception', exit -6). ROS is shut down by then."""
-    if any(thread.is_alive() for thread in _background):
+    if running := sum(thread.is_alive() for thread in _background):
+        print(f"exiting amid {running} background computation(s): abandoned", file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(code)
