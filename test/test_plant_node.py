@@ -99,7 +99,8 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
     """machine_file pru3 in both nodes: a tool setpoint (z 215 mm, alpha 0.08, beta -0.05 rad)
     becomes slider commands, and the head's dynamics under its drives carry the sliders
     there; a command the head cannot reach (sent once the kinematics node, the struts'
-    owner, has left) is refused and counted."""
+    owner, has left) is refused and counted, and a jump it can reach becomes a move within
+    the sliders' speed limit (config/machines/pru3.yaml)."""
     import numpy as np
     from diagnostic_msgs.msg import DiagnosticArray
     from geometry_msgs.msg import PoseStamped
@@ -136,8 +137,18 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
 
     wait_until(lambda: _plant_counter(diagnostics, "rejected_strut_command") == "1", 5.0,
                what="the refused command to be counted")
-    time.sleep(0.2)
+    start = len(states)
+    wait_until(lambda: len(states) > start + 20, 5.0, what="0.1 s more of the plant")
     assert np.abs(np.array(states[-1].position) - target).max() < 1e-9  # still where it was
+
+    # a 30 mm jump of every slider (down in z): a move within the sliders' 200 mm/s
+    start = len(states)
+    commands.publish(JointState(name=["strut_0", "strut_1", "strut_2"], position=list(target - 0.03)))
+    wait_until(lambda: np.abs(np.array(states[-1].position) - (target - 0.03)).max() < 1e-6, 10.0, what="the move")
+    assert max(abs(v) for s in states[start:] for v in s.velocity) < 0.2 * 1.05  # the servos' lag adds little
+    wait_until(lambda: int(_plant_counter(diagnostics, "limited_strut_commands") or 0) >= 15, 5.0,
+               what="the limited periods counted")  # up to 0.2 m/s at 2 m/s^2: 0.1 s, 20 periods
+    assert int(_plant_counter(diagnostics, "limited_strut_commands")) <= 30  # (braking is within the limits)
 
 
 def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):

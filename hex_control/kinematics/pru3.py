@@ -47,10 +47,18 @@ class Pru3Geometry:
     stroke_mm: tuple = (0.0, 100.0)
     tilt_max_rad: float = math.radians(30.0)
     feed_stroke_mm: tuple | None = None  # the x feed stage's travel (min, max); None = head alone
+    # the servos' limits in the plant (hex_control.plant.limits; the seed gives none)
+    slider_speed_max_mm_s: float = math.inf
+    slider_acceleration_max_mm_s2: float = math.inf
+    feed_speed_max_mm_s: float = math.inf
+    feed_acceleration_max_mm_s2: float = math.inf
 
     def __post_init__(self):
         if not (self.rail_radius_mm > 0 and self.platform_radius_mm > 0 and self.rocker_length_mm > 0):
             raise ValueError("radii and rocker length must be positive")
+        if not all(v > 0 for v in (self.slider_speed_max_mm_s, self.slider_acceleration_max_mm_s2,
+                                   self.feed_speed_max_mm_s, self.feed_acceleration_max_mm_s2)):
+            raise ValueError("the sliders' and the feed stage's speed and acceleration limits must be > 0")
         if len(self.rail_angles_rad) != 3 or not self.stroke_mm[0] < self.stroke_mm[1]:
             raise ValueError("need three rail angles and stroke (min < max)")
         if self.feed_stroke_mm is not None and not self.feed_stroke_mm[0] < self.feed_stroke_mm[1]:
@@ -61,14 +69,31 @@ class Pru3Geometry:
         """The sliders, then the feed stage if there is one."""
         return ["strut_0", "strut_1", "strut_2"] + (["feed_x"] if self.feed_stroke_mm is not None else [])
 
+    @property
+    def joint_speed_max_mm_s(self) -> np.ndarray:
+        """Each joint's speed limit (mm/s), in ``joint_names`` order."""
+        return self._per_joint(self.slider_speed_max_mm_s, self.feed_speed_max_mm_s)
+
+    @property
+    def joint_acceleration_max_mm_s2(self) -> np.ndarray:
+        """Each joint's acceleration limit (mm/s^2), in ``joint_names`` order."""
+        return self._per_joint(self.slider_acceleration_max_mm_s2, self.feed_acceleration_max_mm_s2)
+
+    def _per_joint(self, slider: float, feed: float) -> np.ndarray:
+        return np.array([slider] * 3 + ([feed] if self.feed_stroke_mm is not None else []), float)
+
     @classmethod
     def from_dict(cls, data: dict) -> Pru3Geometry:
+        limits = {name: float(data.get(name, math.inf)) for name in (
+            "slider_speed_max_mm_s", "slider_acceleration_max_mm_s2", "feed_speed_max_mm_s",
+            "feed_acceleration_max_mm_s2")}
         return cls(float(data.get("rail_radius_mm", 180.0)), float(data.get("platform_radius_mm", 120.0)),
                    float(data.get("rocker_length_mm", 150.0)),
                    tuple(math.radians(a) for a in data.get("rail_angles_deg", (0.0, 120.0, 240.0))),
                    tuple(float(v) for v in data.get("stroke_mm", (0.0, 100.0))),
                    math.radians(float(data.get("tilt_max_deg", 30.0))),
-                   None if data.get("feed_stroke_mm") is None else tuple(float(v) for v in data["feed_stroke_mm"]))
+                   None if data.get("feed_stroke_mm") is None else tuple(float(v) for v in data["feed_stroke_mm"]),
+                   **limits)
 
     @classmethod
     def from_yaml(cls, path) -> Pru3Geometry:

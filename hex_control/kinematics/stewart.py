@@ -84,6 +84,16 @@ class StewartGeometry:
         object.__setattr__(self, "_nominal_platform", self._nominal_base @ r_home)  # rows: R_home^T s
 
     @property
+    def joint_speed_max_mm_s(self) -> np.ndarray:
+        """Each strut's speed limit (mm/s)."""
+        return np.full(6, self.strut_speed_max_mm_s)
+
+    @property
+    def joint_acceleration_max_mm_s2(self) -> np.ndarray:
+        """Each strut's acceleration limit (mm/s^2)."""
+        return np.full(6, self.strut_acceleration_max_mm_s2)
+
+    @property
     def joints_from_tool_mm(self) -> np.ndarray:
         """Platform joints relative to the tool point, in the platform frame."""
         return self.platform_joints_mm - self.tool_offset_mm

@@ -242,11 +242,9 @@ class PlantNode(Node):
             cell, locator = self._cell(machine_geometry, machine_document)
             self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                                        command_timeout_s=p("command_timeout_s"))
-        limiter = None  # the 3-PRU head: strokes only (its sliders and feed stage are not rate-limited yet)
-        if not is_pru3:
-            speed, acceleration = machine_geometry.strut_speed_max_mm_s, machine_geometry.strut_acceleration_max_mm_s2
-            if math.isfinite(speed * acceleration):
-                limiter = StrutRateLimiter(speed / 1000.0, acceleration / 1000.0)
+        speed, acceleration = machine_geometry.joint_speed_max_mm_s, machine_geometry.joint_acceleration_max_mm_s2
+        limiter = StrutRateLimiter(speed / 1000.0, acceleration / 1000.0) if np.all(np.isfinite(
+            [speed, acceleration])) else None  # a machine file without limits: strokes only
         self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator,
                                   limiter)
         self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)

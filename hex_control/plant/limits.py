@@ -7,11 +7,12 @@ amplifier's overload trip (issue 21: a 50 m strut command used to drive every st
   ``strut_length_mm`` (the 3-PRU head checks its sliders, feed stage and tilt in
   :meth:`hex_control.plant.pru3_machine.Pru3Machine.check_command`). A command outside is
   refused, not clamped: clamping one strut of six moves the platform somewhere nobody asked.
-- Speed and acceleration: a Stewart machine's strut commands, one control period at a
-  time, within the machine file's ``strut_speed_max_mm_s`` and
-  ``strut_acceleration_max_mm_s2`` (:class:`StrutRateLimiter`; ros2_control's joint
-  limiter does the same below every controller). A path within them passes unchanged; a
-  jump is turned into a time-optimal move onto it, all struts scaled by one factor.
+- Speed and acceleration: every joint's command (a Stewart machine's struts; the 3-PRU
+  head's sliders and feed stage), one control period at a time, within the machine file's
+  limits (``joint_speed_max_mm_s`` and ``joint_acceleration_max_mm_s2`` of the geometry;
+  :class:`StrutRateLimiter`; ros2_control's joint limiter does the same below every
+  controller). A path within them passes unchanged; a jump is turned into a time-optimal
+  move onto it, all joints scaled by one factor.
 - Travel: the force-axis command is clamped to the table's end stops (one axis: the stop is
   where the table would go anyway).
 - Overload: a true normal force above ``overload_n`` retracts the table to its stop and
@@ -74,22 +75,25 @@ class ForceAxisLimits:
 
 @dataclass
 class StrutRateLimiter:
-    """Strut commands (m) within a speed (m/s) and an acceleration (m/s^2) limit, updated
-    once a control period: the command follows the target's own speed plus, towards the
-    gap it was left behind, the speed from which it can brake onto it at half the
-    acceleration (sqrt(a e): a period's lag then never overshoots), or the whole gap where
-    that is less; the change of speed and then the speed are scaled down, all struts by
-    one factor, so the platform keeps its direction."""
+    """Joint commands (m) within a speed (m/s) and an acceleration (m/s^2) limit, one for
+    all joints or one per joint, updated once a control period: the command follows the
+    target's own speed plus, towards the gap it was left behind, the speed from which it
+    can brake onto it at half the acceleration (sqrt(a e): a period's lag then never
+    overshoots), or the whole gap where that is less; the change of speed and then the
+    speed are scaled down, all joints by one factor (the one the tightest joint needs), so
+    the platform keeps its direction."""
 
-    speed_max_m_s: float
-    acceleration_max_m_s2: float
+    speed_max_m_s: float | np.ndarray
+    acceleration_max_m_s2: float | np.ndarray
     limited: int = 0  # periods in which a limit acted
 
     def __post_init__(self):
-        if not (math.isfinite(self.speed_max_m_s) and self.speed_max_m_s > 0
-                and math.isfinite(self.acceleration_max_m_s2) and self.acceleration_max_m_s2 > 0):
-            raise ValueError(f"strut limits need a finite speed > 0 and acceleration > 0, got "
+        speed, acceleration = (np.asarray(v, float) for v in (self.speed_max_m_s, self.acceleration_max_m_s2))
+        if not (speed.size and acceleration.size and np.all(np.isfinite(speed)) and np.all(speed > 0)
+                and np.all(np.isfinite(acceleration)) and np.all(acceleration > 0)):
+            raise ValueError(f"joint limits need finite speeds > 0 and accelerations > 0, got "
                              f"{self.speed_max_m_s!r} m/s, {self.acceleration_max_m_s2!r} m/s^2")
+        self.speed_max_m_s, self.acceleration_max_m_s2 = speed, acceleration
         self.command_m = self.target_m = self.speed_m_s = None
 
     def reset(self, lengths_m) -> None:
@@ -102,17 +106,23 @@ class StrutRateLimiter:
         target = np.asarray(target_m, float)
         behind = self.target_m - self.command_m  # the gap left last period (0 while tracking)
         target_speed = (target - self.target_m) / period_s
-        furthest = float(np.max(np.abs(behind)))  # the strut that must brake first sets the pace of all
-        pace = min(1.0 / period_s, math.sqrt(self.acceleration_max_m_s2 / furthest)) if furthest > 0 else 0.0
+        # the joint that must brake first sets the pace of all
+        pace = min(1.0 / period_s, _least_ratio(self.acceleration_max_m_s2, behind) ** 0.5) if np.any(behind) else 0.0
         catch_up = behind * pace
         change = target_speed + catch_up - self.speed_m_s
-        largest_change = float(np.max(np.abs(change)))
-        scale_a = min(1.0, self.acceleration_max_m_s2 * period_s / largest_change) if largest_change > 0 else 1.0
+        scale_a = min(1.0, _least_ratio(self.acceleration_max_m_s2 * period_s, change))
         speed = self.speed_m_s + scale_a * change
-        fastest = float(np.max(np.abs(speed)))
-        scale_v = min(1.0, self.speed_max_m_s / fastest) if fastest > 0 else 1.0
+        scale_v = min(1.0, _least_ratio(self.speed_max_m_s, speed))
         self.limited += scale_a < 1.0 or scale_v < 1.0
         self.speed_m_s = scale_v * speed
         self.command_m = self.command_m + self.speed_m_s * period_s
         self.target_m = target
         return self.command_m.copy()
+
+
+def _least_ratio(limit, value) -> float:
+    """min over joints of limit / |value| (inf where no joint moves)."""
+    magnitude = np.abs(value)
+    moving = magnitude > 0
+    return float(np.min(np.broadcast_to(limit, magnitude.shape)[moving] / magnitude[moving])) if moving.any() \
+        else math.inf
