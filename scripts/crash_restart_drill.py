@@ -23,10 +23,10 @@ import rclpy
 from geometry_msgs.msg import WrenchStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
-from std_msgs.msg import Float64
 
 from hex_control.nodes.graph import NodeGraph, graph_nodes
 from hex_control.nodes.interfaces import STREAM
+from hex_control_msgs.msg import ForceAxisCommand
 
 
 @contextmanager
@@ -94,7 +94,7 @@ def main() -> int:
             try:
                 reached, sim_s, wall_s = plant_clock_reaches(args.sim_s, args.stall_s)
                 if not reached:  # which edge of the loop carries nothing?
-                    print(f"  hung: {samples_in({'/plant/wrench': WrenchStamped, '/plant/force_axis_command': Float64}, 5.0)}"
+                    print(f"  hung: {samples_in({'/plant/wrench': WrenchStamped, '/plant/force_axis_command': ForceAxisCommand}, 5.0)}"
                           f" messages in 5 s", flush=True)
                 for name in args.kill:
                     graph.kill(name)

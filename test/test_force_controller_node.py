@@ -11,6 +11,7 @@ from std_msgs.msg import Float64
 
 from hex_control.nodes.force_controller import ForceControllerNode
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
+from hex_control_msgs.msg import ForceAxisCommand
 from ros_harness import wait_until
 
 
@@ -35,7 +36,7 @@ class LockStepTablePlant:
         self.wrenches = self.node.create_publisher(WrenchStamped, "/plant/wrench", 100)
         self.setpoints = self.node.create_publisher(Float64, "/force_controller/setpoint", 100)
         self.clock = self.node.create_publisher(Clock, "/clock", 100)
-        self.node.create_subscription(Float64, "/plant/force_axis_command", self.on_command, 100)
+        self.node.create_subscription(ForceAxisCommand, "/plant/force_axis_command", self.on_command, 100)
         # as the real plant does: a state unanswered for 0.5 s of wall time is sent again (the
         # first may go out before the controller has matched; a restarted clock is confirmed so),
         # or, with ``advance_unanswered``, the plant steps on with the last command (a timer on a
@@ -50,12 +51,12 @@ class LockStepTablePlant:
             else:
                 self.publish()
 
-    def on_command(self, msg: Float64) -> None:
+    def on_command(self, msg: ForceAxisCommand) -> None:
         self.answered, self.last_command = True, msg
         for _ in range(5):
-            self.table.step(msg.data)
+            self.table.step(msg.position_mm)
         self.time_ns += self.PERIOD_NS
-        self.history.append((self.time_s, msg.data, self.table.force_n))
+        self.history.append((self.time_s, msg.position_mm, self.table.force_n))
         if self.time_s >= self.restart_at_s:  # the plant restarts: a fresh table, sim time from 0
             self.table.reset(-2.0)
             self.time_ns, self.history, self.restart_at_s = -self.PERIOD_NS, [], math.inf
@@ -208,7 +209,7 @@ def test_negative_stamps_are_refused_not_a_crash(ros):
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
         Parameter("trigger", value="measurement")]))
     node = ros.node("negative_stamps")
-    commands = ros.collect(Float64, "/plant/force_axis_command", 100)
+    commands = ros.collect(ForceAxisCommand, "/plant/force_axis_command", 100)
     wrenches = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
     trajectories = node.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
     ros.wait_for_match(node, "/plant/wrench", subscribers=1)
@@ -224,4 +225,26 @@ def test_negative_stamps_are_refused_not_a_crash(ros):
     wait_until(lambda: controller.diagnostics.counters["rejected_trajectory"] >= 1, 5.0, what="the bad trajectory")
     wrenches.publish(good)
     wait_until(lambda: commands, 5.0, what="the answer to the good wrench")
-    assert commands[-1].data == -2.0  # no setpoint: retracted
+    assert commands[-1].position_mm == -2.0  # no setpoint: retracted
+
+
+def test_an_answer_lost_before_the_plant_matched_is_given_again(ros):
+    """The start-up hang of a lock-step graph (issue 21 item 10): the controller answered
+    the plant's first state before its command publisher had matched the plant's
+    subscription, so the answer went nowhere; the plant sends an unanswered state again
+    (the same stamp), which the controller then ignored as already answered, for good. It
+    answers a state sent again with the same command, stamped with the state it answers."""
+    controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
+        Parameter("trigger", value="measurement")]))
+    node = ros.node("late_plant")
+    wrenches = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
+    ros.wait_for_match(node, "/plant/wrench", subscribers=1)
+    state = WrenchStamped()
+    state.header.stamp.sec = 1
+    wrenches.publish(state)  # nobody listens for the answer yet
+    wait_until(lambda: controller.stamps.last_ns == 1_000_000_000, 5.0, what="the first state answered")
+    commands = ros.collect(ForceAxisCommand, "/plant/force_axis_command", 100, publishers=1)
+    wait_until(lambda: controller.publisher.get_subscription_count() >= 1, 5.0, what="the command's match")
+    wrenches.publish(state)  # the plant's re-send
+    wait_until(lambda: commands, 5.0, what="the answer again")
+    assert commands[-1].position_mm == -2.0 and commands[-1].header.stamp.sec == 1

@@ -12,13 +12,13 @@ from geometry_msgs.msg import PoseStamped, WrenchStamped
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Float64
 from trajectory_msgs.msg import JointTrajectory
 
 from hex_control.nodes.grind_job import JobSession
 from hex_control.nodes.interfaces import LATCHED, contour_to_message
 from hex_control.nodes.messages import message_class
-from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult, ToolPath
+from hex_control_msgs.msg import (Contour, ForceAxisCommand, ForceTrajectory, LoadPrediction, PassCommand, PassResult,
+                                  ToolPath)
 
 HOSTILE_FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
                            st.sampled_from([math.nan, math.inf, -math.inf, -1.0, 0.0, 1e300, -1e300, 5e-324]))
@@ -60,7 +60,7 @@ UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematic
     ("/motion/setpoint", PoseStamped, 100), ("/load_predictor/force/prediction", LoadPrediction, 10),
     ("/load_predictor/pass/prediction", LoadPrediction, 10), ("/pass_planner/status", DiagnosticStatus, LATCHED),
     ("/motion/tool_path_raw", ToolPath, LATCHED), ("/motion/tool_path", ToolPath, LATCHED)]
-PLANT = [("/plant/force_axis_command", Float64, 100), ("/plant/strut_command", JointState, 100),
+PLANT = [("/plant/force_axis_command", ForceAxisCommand, 100), ("/plant/strut_command", JointState, 100),
          ("/plant/strut_trajectory", JointTrajectory, LATCHED), ("/force_controller/status", DiagnosticStatus, LATCHED)]
 
 
@@ -102,7 +102,8 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         node = rclpy.create_node("fuzzer", context=session.context)
         session.executor.add_node(node)
         commands, struts, diagnostics = [], [], {}
-        node.create_subscription(Float64, "/plant/force_axis_command", lambda m: commands.append(m.data), 100)
+        node.create_subscription(ForceAxisCommand, "/plant/force_axis_command",
+                                 lambda m: commands.append(m.position_mm), 100)
         node.create_subscription(JointState, "/plant/strut_command", lambda m: struts.append(list(m.position)), 100)
         node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diagnostics.update(
             {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}), 100)

@@ -8,7 +8,7 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from sensor_msgs.msg import JointState
 
-from hex_control_msgs.msg import ForceTrajectory
+from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory
 from ros_harness import diagnostics_value, wait_until
 
 KEEP = QoSProfile(depth=10_000)
@@ -63,6 +63,39 @@ def test_lockstep_tracks_a_force_step_and_repeats_bit_for_bit(ros, spawn):
     assert max(f for _, f in first) < 30.0
     assert len(first) == 301  # t = 0 to 1.5 s every 5 ms, none lost
     assert first == second  # same seed: the same floats at the same stamps
+
+
+def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on(ros, spawn):
+    """A lock-step plant takes a force command only when it is stamped with the state the
+    plant waits on: a late, repeated or stranger's answer (another stamp) is counted and
+    does not step the loop, so it can neither stop nor shift it (issue 21 item 10)."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    spawn(PLANT + ["-p", "lockstep_timeout_s:=3.0"])
+    wrenches = ros.collect(WrenchStamped, "/plant/wrench", KEEP, publishers=1)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    node = ros.node("answers")
+    commands = node.create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
+    wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")
+
+    def answer(stamp_s: float) -> None:
+        command = ForceAxisCommand(position_mm=-2.0)
+        command.header.stamp.sec, command.header.stamp.nanosec = int(stamp_s), round(stamp_s % 1 * 1e9)
+        commands.publish(command)
+
+    answer(5.0)  # no state is stamped 5 s
+    wait_until(lambda: int(_plant_counter(diagnostics, "stale_force_commands") or 0) == 1 and wrenches, 10.0,
+               what="the stale answer counted")
+    assert {_stamp_s(w) for w in wrenches} == {0.0}  # re-sent while unanswered, never stepped
+    answer(0.0)
+    wait_until(lambda: _stamp_s(wrenches[-1]) == pytest.approx(0.005), 5.0, what="one step")
+    answer(0.0)  # the same answer again (one writer: it arrives before the next)
+    answer(0.005)
+    wait_until(lambda: _stamp_s(wrenches[-1]) == pytest.approx(0.01), 5.0, what="the next step")
+    # (checked before lockstep_timeout_s passes: then a plant whose controller fell silent runs free)
+    assert sorted({round(_stamp_s(w), 6) for w in wrenches}) == [0.0, 0.005, 0.01]
+    wait_until(lambda: int(_plant_counter(diagnostics, "stale_force_commands") or 0) == 2, 5.0,
+               what="the repeated answer counted")
 
 
 def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
@@ -191,14 +224,13 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     outside the stroke is refused: the struts stay where they were; a jump inside it is
     made a move within the machine file's strut speed and acceleration."""
     from diagnostic_msgs.msg import DiagnosticArray
-    from std_msgs.msg import Float64
 
     spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0"])
     forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     node = ros.node("rogue")
-    force_axis = node.create_publisher(Float64, "/plant/force_axis_command", 10)
+    force_axis = node.create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
     struts = node.create_publisher(JointState, "/plant/strut_command", 10)
     wait_until(lambda: force_axis.get_subscription_count() >= 1 and struts.get_subscription_count() >= 1, 15.0,
                what="the plant")
@@ -207,7 +239,7 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     wait_until(lambda: states and states[-1].position[0] == pytest.approx(2.6, abs=1e-6), 10.0, what="the struts")
 
     def pushing():
-        force_axis.publish(Float64(data=1000.0))
+        force_axis.publish(ForceAxisCommand(position_mm=1000.0))
         return _plant_counter(diagnostics, "overload_trips") == "1"
     wait_until(pushing, 15.0, interval_s=0.05, what="the overload trip")
     start = len(forces)
@@ -217,10 +249,10 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     assert int(_plant_counter(diagnostics, "clamped_force_commands")) >= 1
 
     def backing_off():  # no force asked: the trip resets
-        force_axis.publish(Float64(data=-1.0))
+        force_axis.publish(ForceAxisCommand(position_mm=-1.0))
         return _plant_counter(diagnostics, "overload_resets") == "1"
     wait_until(backing_off, 10.0, interval_s=0.05, what="the trip's reset")
-    force_axis.publish(Float64(data=0.3))
+    force_axis.publish(ForceAxisCommand(position_mm=0.3))
     wait_until(lambda: forces[-1].wrench.force.z > 15.0, 10.0, what="force again after the reset")
 
     struts.publish(JointState(name=names, position=[50.0] * 6))
@@ -241,7 +273,6 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
     (/operator) only, even when a rogue publishes first; the struts obey the first node heard.
     A rogue's commands are refused and counted, and change nothing."""
     from diagnostic_msgs.msg import DiagnosticArray
-    from std_msgs.msg import Float64
 
     spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0",
            "-p", "force_command_owner:=/operator"])
@@ -250,7 +281,7 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     operator, rogue = ros.node("operator"), ros.node("rogue")
     publishers = {(who, topic): who.create_publisher(msg_type, topic, 10) for who in (operator, rogue)
-                  for topic, msg_type in (("/plant/force_axis_command", Float64), ("/plant/strut_command", JointState))}
+                  for topic, msg_type in (("/plant/force_axis_command", ForceAxisCommand), ("/plant/strut_command", JointState))}
     wait_until(lambda: all(p.get_subscription_count() >= 1 for p in publishers.values()), 15.0, what="the plant")
     names = [f"strut_{i}" for i in range(6)]
 
@@ -260,14 +291,14 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
             return until() if until else _plant_counter(diagnostics, counter) not in (None, "0")
         wait_until(done, 10.0, interval_s=0.05, what=f"{topic} from {who.get_name()}")
 
-    command(rogue, "/plant/force_axis_command", Float64(data=0.3), "foreign_force_command")
+    command(rogue, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3), "foreign_force_command")
     assert max(f.wrench.force.z for f in forces) == 0.0  # refused although first
-    command(operator, "/plant/force_axis_command", Float64(data=0.3), until=lambda: forces[-1].wrench.force.z > 15.0)
+    command(operator, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3), until=lambda: forces[-1].wrench.force.z > 15.0)
     command(operator, "/plant/strut_command", JointState(name=names, position=[2.6] * 6),
             until=lambda: states and states[-1].position[0] == pytest.approx(2.6, abs=1e-6))
 
     refused = int(_plant_counter(diagnostics, "foreign_force_command"))
-    command(rogue, "/plant/force_axis_command", Float64(data=-5.0),
+    command(rogue, "/plant/force_axis_command", ForceAxisCommand(position_mm=-5.0),
             until=lambda: int(_plant_counter(diagnostics, "foreign_force_command")) > refused)
     command(rogue, "/plant/strut_command", JointState(name=names, position=[2.61] * 6), "foreign_strut_command")
     start = len(forces)

@@ -15,7 +15,9 @@ Topics:
     ~/setpoint                   std_msgs/Float64                  in  a direct desired force (N)
     /plant/wrench                geometry_msgs/WrenchStamped       in  measured force, wrench.force.z (N)
     /load_predictor/force/prediction  LoadPrediction              in  feed-forward (optional)
-    /plant/force_axis_command    std_msgs/Float64                  out table position command (mm)
+    /plant/force_axis_command    hex_control_msgs/ForceAxisCommand out table position command (mm),
+                                 stamped with the measurement it answers (trigger measurement) or
+                                 the node's time (trigger timer)
     ~/status                     diagnostic_msgs/DiagnosticStatus  out (latched) "trajectory" with the
                                  job_id and pass_index of the force trajectory it holds: the plant
                                  in lock-step starts a pass only once its controller has it
@@ -33,7 +35,10 @@ rejected and counted; the desired force is limited to ``max_force_n`` (F_max) an
 command to [output_min_mm, output_max_mm]. A command held at one of those limits for
 ``saturation_warn_s`` while tracking is a WARN (no contact, or work out of reach).
 
-Clock jumps (:mod:`hex_control.control.stamp_guard`): with ``trigger`` measurement, a wrench
+Answers (trigger measurement): a wrench stamped like the last one answered is the plant
+sending an unanswered state again (its first answer may have gone out before this node's
+publisher had matched the plant): the same command is sent again, unchanged, the loop not
+stepped. Clock jumps (:mod:`hex_control.control.stamp_guard`): a wrench
 stamped off the plant's timeline is refused (``rejected_stamp``) unless the next confirms a
 new timeline; backwards (a restarted plant), or a sim clock that goes back under the timer,
 drops the force trajectory and retracts (``clock_jumps``, WARN) until the next pass.
@@ -63,7 +68,7 @@ from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import ParameterError, declare_parameters
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
-from hex_control_msgs.msg import ForceTrajectory, LoadPrediction
+from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, LoadPrediction
 
 CEILING_WARN_S = 5.0  # a desired force above max_force_n keeps the WARN this long (wall s) after the last
 _TABLE = ForceTableParameters()
@@ -141,7 +146,8 @@ class ForceControllerNode(Node):
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
         self.saturated_s = 0.0  # how long the command has been held at a limit while tracking
         self.stamps = StampGuard(round(p("max_stamp_step_s") * 1e9))
-        self.publisher = self.create_publisher(Float64, "/plant/force_axis_command", 10)
+        self.publisher = self.create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
+        self.answer = None  # the last command sent (ForceAxisCommand)
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         # latched: a controller that matches the pass planner late still gets the pass it must run
         self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
@@ -189,8 +195,11 @@ class ForceControllerNode(Node):
         if self.measurement_triggered:
             stamp = Time.from_msg(msg.header.stamp, clock_type=self.get_clock().clock_type)
             verdict = self.stamps.check(stamp.nanoseconds)
-            if verdict is Stamp.REPEAT:
-                return  # already answered (the plant re-sends until answered)
+            if verdict is Stamp.REPEAT:  # sent again: the plant has not had the answer
+                if self.answer is not None and self.answer.header.stamp == msg.header.stamp:
+                    self.publisher.publish(self.answer)
+                    self.diagnostics.count("answers_repeated")
+                return
             if verdict is Stamp.REFUSED:
                 self._reject("stamp")
                 return
@@ -265,7 +274,7 @@ class ForceControllerNode(Node):
             command = self.touch_down.command_mm(self.command_mm, -elapsed, self.measured_n, self.period_s)
             self.command_mm = min(max(command, self.limits[0]), self.limits[1])
             self.law.hold(self.command_mm)
-            self.publisher.publish(Float64(data=self.command_mm))
+            self._send(now)
             return
         desired = self._limited(self._desired(now))
         fresh_setpoint = desired is not None and (self.trajectory is not None or not self._stale(
@@ -293,7 +302,12 @@ class ForceControllerNode(Node):
             command = max(self.command_mm - step, self.limits[0])
             self.law.hold(command)
         self.command_mm = min(max(command, self.limits[0]), self.limits[1])
-        self.publisher.publish(Float64(data=self.command_mm))
+        self._send(now)
+
+    def _send(self, now: Time) -> None:
+        self.answer = ForceAxisCommand(position_mm=self.command_mm)
+        self.answer.header.stamp = now.to_msg()
+        self.publisher.publish(self.answer)
 
     def _watch_saturation(self, command_mm: float, desired_n: float) -> None:
         """A command held at a limit for ``saturation_warn_s`` while tracking is a fault (no

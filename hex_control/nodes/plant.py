@@ -3,10 +3,14 @@ and the source of ``/clock`` -- every other node runs on sim time (use_sim_time:
 
 Modes (``mode``):
 - ``lockstep``: after publishing the state at time t the plant waits for the force-axis
-  command that answers it, then advances one control period. Deterministic for a seed when
-  the controller answers every measurement (force_controller trigger:=measurement); as fast
-  as the graph allows. Until the first command arrives the state is re-sent every
-  ``lockstep_timeout_s``; after that a timeout advances with the held command and is counted.
+  command that answers it (stamped t), then advances one control period. Deterministic for
+  a seed when the controller answers every measurement (force_controller
+  trigger:=measurement); as fast as the graph allows. A command stamped otherwise (a late
+  or repeated answer, a stranger's) is counted (``stale_force_commands``) and does not step
+  the loop. Until the first command arrives the state is re-sent every
+  ``lockstep_timeout_s`` (the controller answers a re-sent state again: its first answer
+  may have gone out before it had matched the plant); after that a timeout advances with
+  the held command and is counted.
   With a workpiece (``grinding``) sim time also never outruns the trajectories: the plant
   advances only while a pass runs, or is announced, its strut trajectory is held and the
   force controller says it holds the pass's force trajectory (``controller_status_topic``,
@@ -62,7 +66,8 @@ Topics:
     /plant/true_wrench          geometry_msgs/WrenchStamped  out  with ``debug_streams``: the true normal
                                                                   force (N), transient-local, last 1000
     /plant/deflection           std_msgs/Float64             out  with ``debug_streams``: structural mode (mm)
-    /plant/force_axis_command   std_msgs/Float64             in   table position command (mm)
+    /plant/force_axis_command   hex_control_msgs/ForceAxisCommand in  table position command (mm), stamped
+                                                                  with the state it answers
     /plant/strut_trajectory     trajectory_msgs/JointTrajectory in  (latched) strut lengths (m) of a whole
                                                                   move, sampled at every control period
                                                                   once sim time reaches its stamp; one
@@ -124,7 +129,7 @@ from hex_control.plant.pru3_machine import DRIVES, Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
+from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult, PlantTelemetry
 
 HELD_TRAJECTORIES = 4  # strut trajectories held at once (the running one and those queued after it)
 MISSED_WARN = 0.1  # real time: a fraction of a second's cycles missed beyond which the plant warns
@@ -276,7 +281,7 @@ class PlantNode(Node):
         self.strut_publisher = self.create_publisher(JointState, "/plant/strut_states", 100)
         self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
         for topic, msg_type, callback, qos, owner, name in (
-                ("/plant/force_axis_command", Float64, self._on_force_command, 100, "force_command_owner",
+                ("/plant/force_axis_command", ForceAxisCommand, self._on_force_command, 100, "force_command_owner",
                  "force_command"),
                 ("/plant/strut_command", JointState, self._on_strut_command, 100, "strut_command_owner",
                  "strut_command"),
@@ -366,11 +371,14 @@ class PlantNode(Node):
         self._lockstep_step()
 
     # -- inputs ----------------------------------------------------------------------------
-    def _on_force_command(self, msg: Float64) -> None:
-        if not math.isfinite(msg.data):
+    def _on_force_command(self, msg: ForceAxisCommand) -> None:
+        if not math.isfinite(msg.position_mm):
             self.diagnostics.count("rejected_force_command")
             return
-        self.command_mm = msg.data
+        if self.mode == "lockstep" and not self.free_running and msg.header.stamp != time_msg(self.sim.time_s):
+            self.diagnostics.count("stale_force_commands")  # it answers another state than the one waiting
+            return
+        self.command_mm = msg.position_mm
         self.last_command_s, self.free_running = self.sim.time_s, False
         self.diagnostics.clear("free_running")
         now = time.monotonic()
