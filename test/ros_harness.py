@@ -148,6 +148,8 @@ class RosHarness:
         self._closing = True
         self.executor.shutdown(timeout_sec=5.0)
         for node in self._nodes:
+            for waitable in list(node.waitables):  # action clients and servers: destroy_node leaves them, and
+                waitable.destroy()  # they keep the DDS participant until the garbage collector finalizes them
             node.destroy_node()
         self.context.try_shutdown()
         self._thread.join(timeout=5.0)

@@ -1,6 +1,8 @@
 """The node graph as processes (hex_control.nodes.graph): a graph that does not start says
 where each node waits before it is stopped."""
 
+from diagnostic_msgs.msg import DiagnosticArray
+
 from hex_control.nodes.graph import NodeGraph, graph_nodes
 from ros_harness import wait_until
 
@@ -10,8 +12,10 @@ def test_a_dump_writes_every_threads_traceback_into_the_nodes_log_and_the_node_r
     graph = NodeGraph(kinematics, tmp_path / "logs", env=ros_env)
     graph.start()
     try:
-        observer = ros.node("graph_observer")
-        wait_until(lambda: "kinematics" in observer.get_node_names(), 60.0, what="the kinematics node")
+        diagnostics = ros.collect(DiagnosticArray, "/diagnostics", 10)
+        # a diagnostics report comes from its executor: the node is past its start-up, spinning
+        wait_until(lambda: any(s.name == "/kinematics" for m in list(diagnostics) for s in m.status), 60.0,
+                   what="the kinematics node's diagnostics")
         assert graph.dump_tracebacks() == []
         log = graph.log_tail("kinematics", 400)
         assert "(most recent call first):" in log and "spin_until_stopped" in log, log

@@ -31,7 +31,8 @@ def best_time(function, repeat: int = 5) -> float:
 
 
 def run_benchmarks(names, quick: bool = False) -> int:
-    from hex_control.bench import estimation, graph, grinding, kinematics, loop, plant, sdp, shaping  # noqa: F401 (register)
+    from hex_control.bench import (  # noqa: F401 (register)
+        estimation, graph, graph_starts, grinding, kinematics, loop, plant, sdp, shaping)
 
     unknown = [n for n in names if n not in CASES]
     if unknown:

@@ -50,6 +50,14 @@ class JobObserver(Node):
         self.job_id = None
         self.job_result = None
 
+    def destroy_node(self) -> None:
+        # rclpy's destroy_node leaves waitables alone: the action client would keep the node,
+        # and with it the context's DDS participant, until the garbage collector finalized it
+        # at some later moment (a bench of 43 graph starts in one process held 13 participants
+        # and deadlocked in Fast DDS when one was finalized)
+        self.client.destroy()
+        super().destroy_node()
+
     def _mine(self, job_id: str) -> bool:
         return self.job_id is not None and job_id == self.job_id
 
@@ -184,7 +192,10 @@ class JobSession:
             self.executor.spin_once(timeout_sec=0.05)
         return value
 
-    def _wait_for_graph(self) -> None:
+    def wait_until_ready(self) -> None:
+        """Spin until the graph can take a goal: the plant's first scan, the control streams
+        matched, the action server answering, the force loop's first state answered.
+        TimeoutError naming what it waited for."""
         record, observer = self.record, self.observer
         self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
@@ -199,7 +210,7 @@ class JobSession:
     def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
         record, observer = self.record, self.observer
         try:
-            self._wait_for_graph()
+            self.wait_until_ready()
         except TimeoutError as exc:  # nothing has been asked of the graph yet: start it again, once
             silent = self.graph.dump_tracebacks()  # where each node waits, into logs/<node>.log
             print(f"the graph did not start ({exc}); its nodes' tracebacks are in {self.graph.log_dir}"
@@ -210,7 +221,7 @@ class JobSession:
             record.force.clear()
             record.events.append(("graph_restart", -1))
             self.graph.start()
-            self._wait_for_graph()
+            self.wait_until_ready()
         bead, width = record.contours[0]
         goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
                               bead_width_mm=float(width))
