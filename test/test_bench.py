@@ -71,3 +71,13 @@ def test_graph_benchmark_runs_the_whole_graph_with_both_executors(ros_env, capsy
                          out)
     assert out.count("CPU s per simulated s: plant") == 2
     assert "the same passes with both executors: True" in out
+
+
+def test_graph_starts_counts_fresh_graphs_ready_and_removes_their_logs(ros_env, tmp_path):
+    from hex_control.bench.graph_starts import start_graphs
+
+    seen = []
+    ready_s, hung = start_graphs(2, tmp_path, lambda done, total, hung: seen.append((done, total, hung)))
+    assert hung == {} and len(ready_s) == 2 and all(0 < s < 60 for s in ready_s)
+    assert seen == [(1, 2, 0), (2, 2, 0)]
+    assert list(tmp_path.iterdir()) == []  # the ready starts' logs are removed; a hung one's are kept

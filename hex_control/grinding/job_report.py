@@ -73,7 +73,6 @@ class JobRecord:
                 # each pass once, in order (a restarted planner must not repeat or skip one)
                 "passes_in_order": results_in_order == list(range(len(results_in_order))),
                 "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
-                "graph_restarts": sum(kind == "graph_restart" for kind, _ in self.events),
                 "dulling_detected_after_pass": next((k for k, _, _, drift in specific_energy_by_pass(self)
                                                      if drift > 0.5), None),
                 "burn": any(r["burn"] for r in self.results.values()),
