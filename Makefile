@@ -7,7 +7,7 @@ PY     := $(VENV)/bin/python
 MSG_SOURCES := $(shell find msg_defs -type f -name '*.msg' -o -type f -name '*.srv' -o -type f -name '*.action') \
                msg_defs/CMakeLists.txt msg_defs/package.xml
 
-.PHONY: setup demo test bench lock clean
+.PHONY: setup demo test lint bench lock clean
 
 setup: $(VENV)/.stamp-package
 
@@ -43,6 +43,9 @@ demo: setup
 # spin for cores others hold (a shaping test took 507 s under two CPU burners, 23 s with one)
 test: setup
 	OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest -q -n 2 --dist worksteal --durations=20 test
+
+lint: setup
+	$(VENV)/bin/ruff check hex_control test scripts
 
 bench: setup
 	$(VENV)/bin/hexctl bench

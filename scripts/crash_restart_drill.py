@@ -94,8 +94,8 @@ def main() -> int:
             try:
                 reached, sim_s, wall_s = plant_clock_reaches(args.sim_s, args.stall_s)
                 if not reached:  # which edge of the loop carries nothing?
-                    print(f"  hung: {samples_in({'/plant/wrench': WrenchStamped, '/plant/force_axis_command': ForceAxisCommand}, 5.0)}"
-                          f" messages in 5 s", flush=True)
+                    streams = {"/plant/wrench": WrenchStamped, "/plant/force_axis_command": ForceAxisCommand}
+                    print(f"  hung: {samples_in(streams, 5.0)} messages in 5 s", flush=True)
                 for name in args.kill:
                     graph.kill(name)
                 if args.restart and reached:

@@ -3,8 +3,12 @@
 import numpy as np
 import pytest
 
-from hex_control.grinding.coefficients import (PassModelUpdate, achievable_mean_force_n, fit_power_law,
-                                              measured_specific_energy)
+from hex_control.grinding.coefficients import (
+    PassModelUpdate,
+    achievable_mean_force_n,
+    fit_power_law,
+    measured_specific_energy,
+)
 from hex_control.grinding.model import GrindingProcess
 
 

@@ -5,8 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.grinding.contact import (FACE, MULTIPLE, NO_CONTACT, TIP, DiskPose, clip_below, contact_patch,
-                                          contact_patch_sampled, contact_patch_scan)
+from hex_control.grinding.contact import (
+    FACE,
+    MULTIPLE,
+    NO_CONTACT,
+    TIP,
+    DiskPose,
+    clip_below,
+    contact_patch,
+    contact_patch_sampled,
+    contact_patch_scan,
+)
 
 THETA = math.radians(20.0)
 R = 85.0
@@ -27,7 +36,8 @@ FIG_6_7 = {
     # 2) a patch from the tip up the face: the tip 0.4 mm into a flat bead
     TIP: (_flat(1.0), _pose(50.0, 0.6)),
     # 3) a bump ahead of the tip, the tip itself clear of the surface
-    FACE: ((np.array([0.0, 60.0, 61.0, 63.0, 64.0, 200.0]), np.array([0.0, 0.0, 8.0, 8.0, 0.0, 0.0])), _pose(50.0, 1.0)),
+    FACE: ((np.array([0.0, 60.0, 61.0, 63.0, 64.0, 200.0]), np.array([0.0, 0.0, 8.0, 8.0, 0.0, 0.0])),
+           _pose(50.0, 1.0)),
     # 4) two bumps under the face
     MULTIPLE: ((np.array([0.0, 55.0, 56.0, 57.0, 70.0, 71.0, 73.0, 74.0, 200.0]),
                 np.array([0.0, 0.0, 5.0, 0.0, 0.0, 9.0, 9.0, 0.0, 0.0])), _pose(50.0, 1.0)),

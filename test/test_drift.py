@@ -59,7 +59,8 @@ def test_it_agrees_with_filterpys_imm_estimator():
 
     p, rate_variance = 0.05, 0.5
     filters = []
-    for transition, noise, rate_p0 in (([[0.98, 0], [0, 0]], [0.5, 0.0], 0.0), ([[1, 1], [0, 1]], [0.5, rate_variance], 4.0)):
+    for transition, noise, rate_p0 in (([[0.98, 0], [0, 0]], [0.5, 0.0], 0.0),
+                                       ([[1, 1], [0, 1]], [0.5, rate_variance], 4.0)):
         kf = KalmanFilter(dim_x=2, dim_z=1)
         kf.F, kf.Q, kf.H, kf.R = np.array(transition, float), np.diag(noise), np.array([[1.0, 0.0]]), np.array([[2.25]])
         kf.P = np.diag([PASS_MODEL.p0, rate_p0])
@@ -73,7 +74,8 @@ def test_it_agrees_with_filterpys_imm_estimator():
         assert step.drift_probability == pytest.approx(reference.mu[1], abs=1e-12)
         assert step.drift_per_sample == pytest.approx(reference.x[1, 0], abs=1e-9)
         reference.predict()
-        assert step.prediction == pytest.approx(K1 + sum(c * f.x[0, 0] for c, f in zip(reference.cbar, filters)), abs=1e-9)
+        expected = K1 + sum(c * f.x[0, 0] for c, f in zip(reference.cbar, filters))
+        assert step.prediction == pytest.approx(expected, abs=1e-9)
 
 
 def test_a_dulling_disk_is_flagged_by_its_fourth_pass_and_a_sharp_one_is_not():

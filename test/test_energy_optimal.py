@@ -3,8 +3,13 @@
 import numpy as np
 import pytest
 
-from hex_control.control.energy_optimal import (EnergyIndexController, input_integral, simulate,
-                                                state_matrices, vibration_energy)
+from hex_control.control.energy_optimal import (
+    EnergyIndexController,
+    input_integral,
+    simulate,
+    state_matrices,
+    vibration_energy,
+)
 
 PERIOD = 0.002
 
@@ -76,8 +81,8 @@ def test_energy_law_on_the_force_table_against_the_itae_pi(stiction_n):
     import math
 
     from hex_control.control.force_law import EnergyForceLaw, PIForceLaw
-    from hex_control.control.loop_study import thesis_ramp, thesis_step
     from hex_control.control.pi import TustinPI
+    from hex_control.studies.loop_study import thesis_ramp, thesis_step
     k = 6e5 / 85**2
     r = 3e3 if stiction_n == 0 else 1e3
     for name, trajectory in (("step", thesis_step), ("ramp", thesis_ramp)):

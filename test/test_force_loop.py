@@ -24,7 +24,8 @@ def test_position_loop_poles_and_unit_gain():
     for _ in range(5000):
         table.step(1.0)
         positions.append(table.position_mm)
-    reference = control.tf([2 * math.pi * 9 * 2 * math.pi * 40], np.polymul([1, 2 * math.pi * 9], [1, 2 * math.pi * 40]))
+    w1, w2 = 2 * math.pi * 9, 2 * math.pi * 40
+    reference = control.tf([w1 * w2], np.polymul([1, w1], [1, w2]))
     _, expected = control.step_response(reference, T=np.arange(0, 5001) * 1e-4)  # T[0] is t = 0
     np.testing.assert_allclose(positions, np.squeeze(expected)[1:], atol=1e-9)
 
@@ -58,7 +59,8 @@ def test_linear_closed_loop_matches_python_control():
     table.reset(-1.0)
     pi = TustinPI(kp, ki, period)
     pi.reset(-1.0)
-    fine = np.max(np.abs(simulate_force_loop(table, PIForceLaw(pi), lambda _t: 20.0, period, 4.0)["measured"] - np.squeeze(y_ref)))
+    measured = simulate_force_loop(table, PIForceLaw(pi), lambda _t: 20.0, period, 4.0)["measured"]
+    fine = np.max(np.abs(measured - np.squeeze(y_ref)))
     assert coarse < 0.1 and fine < coarse / 8  # 0.5 % of the step, shrinking with the step size
 
 

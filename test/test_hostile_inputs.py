@@ -17,8 +17,15 @@ from trajectory_msgs.msg import JointTrajectory
 from hex_control.nodes.grind_job import JobSession
 from hex_control.nodes.interfaces import LATCHED, contour_to_message
 from hex_control.nodes.messages import message_class
-from hex_control_msgs.msg import (Contour, ForceAxisCommand, ForceTrajectory, LoadPrediction, PassCommand, PassResult,
-                                  ToolPath)
+from hex_control_msgs.msg import (
+    Contour,
+    ForceAxisCommand,
+    ForceTrajectory,
+    LoadPrediction,
+    PassCommand,
+    PassResult,
+    ToolPath,
+)
 
 HOSTILE_FLOATS = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=64),
                            st.sampled_from([math.nan, math.inf, -math.inf, -1.0, 0.0, 1e300, -1e300, 5e-324]))

@@ -8,8 +8,14 @@ import math
 import matplotlib.pyplot as plt
 import pytest
 
-from hex_control.grinding.job_report import (JobRecord, job_statistics, load_job_summaries, specific_energy_by_pass,
-                                             strut_figure, write_report)
+from hex_control.grinding.job_report import (
+    JobRecord,
+    job_statistics,
+    load_job_summaries,
+    specific_energy_by_pass,
+    strut_figure,
+    write_report,
+)
 
 
 @pytest.mark.parametrize("names, labels", [
@@ -65,7 +71,8 @@ def test_each_k1_prediction_is_matched_to_the_pass_result_it_follows():
     record = JobRecord(results={0: {"specific_energy_j_mm3": 8.3, "stamp_s": 21.84},
                                 1: {"specific_energy_j_mm3": 12.9, "stamp_s": 29.68},
                                 2: {"specific_energy_j_mm3": math.nan, "stamp_s": 37.52}},  # nothing removed
-                       k1_predictions=[(29.68, 10.8, 0.7), (21.84, 8.6, 0.2), (5.0, 99.0, 1.0)])  # out of order; a stray one
+                       # out of order; a stray one
+                       k1_predictions=[(29.68, 10.8, 0.7), (21.84, 8.6, 0.2), (5.0, 99.0, 1.0)])
     rows = specific_energy_by_pass(record)
     assert [r[:2] for r in rows[:2]] == [(0, 8.3), (1, 12.9)]
     assert [r[2:] for r in rows[:2]] == [(8.6, 0.2), (10.8, 0.7)]
@@ -114,8 +121,10 @@ def test_the_last_scan_is_the_part_and_a_refused_pass_has_none(tmp_path):
 
 
 def test_the_plan_is_held_against_what_the_plant_cut_per_pass():
-    passes = [{"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": None, "measured_cut_depth_mm": 0.45},
-              {"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": 0.2, "measured_cut_depth_mm": 0.22},
+    passes = [{"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": None,
+               "measured_cut_depth_mm": 0.45},
+              {"status": "completed", "cut_depth_mm": 0.5, "pass_planner_cut_depth_mm": 0.2,
+               "measured_cut_depth_mm": 0.22},
               {"status": "aborted", "cut_depth_mm": 0.5, "measured_cut_depth_mm": 0.1}]  # not a pass as planned
     error = job_statistics([{**_summary("done", 0.01, 0.0), "passes": passes}], 0.025)["cut_depth_error_mm"]
     assert error["passes"] == 2 and error["mean_absolute"] == pytest.approx(0.035)

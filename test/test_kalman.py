@@ -5,8 +5,14 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.estimation import (GaussMarkovModel, MultiChannelPredictor, OneStepPredictor,
-                                    expected_skill, predict_series, skill_score)
+from hex_control.estimation import (
+    GaussMarkovModel,
+    MultiChannelPredictor,
+    OneStepPredictor,
+    expected_skill,
+    predict_series,
+    skill_score,
+)
 from hex_control.estimation.kalman import gain_sequence, riccati_step, steady_state_variance
 
 

@@ -85,7 +85,8 @@ def test_compute_workspace_matches_the_library(client):
 
 def test_bad_requests_get_error_codes_and_the_node_survives(client):
     nan_pose = ToolPose(z_mm=math.nan)
-    assert client("inverse_kinematics", InverseKinematics.Request(poses=[nan_pose])).error_code.val == Code.INVALID_INPUT
+    answer = client("inverse_kinematics", InverseKinematics.Request(poses=[nan_pose]))
+    assert answer.error_code.val == Code.INVALID_INPUT
     assert client("test_pose", TestPose.Request(poses=[nan_pose])).error_code.val == Code.INVALID_INPUT
     for bad in (ComputeWorkspace.Request(sector_count=10_000_000), ComputeWorkspace.Request(roll_rad=math.inf),
                 ComputeWorkspace.Request(resolution_mm=-1.0),

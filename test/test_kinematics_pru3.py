@@ -6,8 +6,13 @@ import numpy as np
 import pytest
 
 from hex_control.config import config_file
-from hex_control.kinematics.pru3 import (Pru3Geometry, forward_kinematics, inverse_kinematics,
-                                         slider_accelerations, velocity_jacobian)
+from hex_control.kinematics.pru3 import (
+    Pru3Geometry,
+    forward_kinematics,
+    inverse_kinematics,
+    slider_accelerations,
+    velocity_jacobian,
+)
 
 PRU3 = Pru3Geometry.from_yaml(config_file("machines/pru3.yaml"))
 OMEGA = 4 * math.pi  # rad/s, seed 4.2

@@ -10,11 +10,23 @@ from scipy.spatial.transform import Rotation
 from hex_control.config import config_file
 from hex_control.kinematics.rotation import rotation_matrix
 from hex_control.kinematics.segments import segment_distance
-from hex_control.kinematics.stewart import (ForwardKinematicsError, StewartGeometry, check_poses,
-                                            forward_kinematics, forward_kinematics_batch, jacobian,
-                                            strut_lengths, test_pose)
-from hex_control.kinematics.workspace import (compute_workspace, cross_section, sector_volume,
-                                              sphere_directions, voxel_volume)
+from hex_control.kinematics.stewart import (
+    ForwardKinematicsError,
+    StewartGeometry,
+    check_poses,
+    forward_kinematics,
+    forward_kinematics_batch,
+    jacobian,
+    strut_lengths,
+    test_pose,
+)
+from hex_control.kinematics.workspace import (
+    compute_workspace,
+    cross_section,
+    sector_volume,
+    sphere_directions,
+    voxel_volume,
+)
 
 NIST_FILE = config_file("machines/nist_ingersoll.yaml")
 NIST = StewartGeometry.from_yaml(NIST_FILE)
@@ -220,8 +232,13 @@ def test_tracking_forward_kinematics_follows_a_move_as_the_batch_solver_does():
     """The plant's FK (one warm evaluation per control period) against the batch
     Newton-Raphson, pose by pose along a 40 mm move with a tilt; its Jacobian is the batch
     one's to rounding."""
-    from hex_control.kinematics.stewart import (TrackingForwardKinematics, _lengths_and_jacobian,
-                                                forward_kinematics, jacobian, strut_lengths)
+    from hex_control.kinematics.stewart import (
+        TrackingForwardKinematics,
+        _lengths_and_jacobian,
+        forward_kinematics,
+        jacobian,
+        strut_lengths,
+    )
 
     home = np.asarray(NIST.home_pose, float)
     poses = home + np.outer(np.linspace(0.0, 1.0, 200), [40.0, -10.0, -20.0, 0.05, -0.03, 0.02])

@@ -7,9 +7,17 @@ from dataclasses import replace
 
 import pytest
 
-from hex_control.control.loop_study import (RollOff, grinding_table, linear_figures, mean_force_rms,
-                                            runout_amplification, simulate, thesis_ramp, thesis_step,
-                                            usable_bandwidth)
+from hex_control.studies.loop_study import (
+    RollOff,
+    grinding_table,
+    linear_figures,
+    mean_force_rms,
+    runout_amplification,
+    simulate,
+    thesis_ramp,
+    thesis_step,
+    usable_bandwidth,
+)
 
 RATE_HZ = 200.0
 NOTCH = RollOff("notch", 35.0, 0.5)  # wide notch centred in the 20-50 Hz disk band

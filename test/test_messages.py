@@ -3,8 +3,14 @@
 import pytest
 from geometry_msgs.msg import WrenchStamped
 
-from hex_control.nodes.messages import (check_numeric_field, fill_message, get_field, message_class,
-                                        to_primitive, type_name_of)
+from hex_control.nodes.messages import (
+    check_numeric_field,
+    fill_message,
+    get_field,
+    message_class,
+    to_primitive,
+    type_name_of,
+)
 from hex_control_msgs.msg import Contour
 from hex_control_msgs.srv import TestPose as PoseTestService
 

@@ -9,8 +9,14 @@ import pytest
 from hex_control.grinding.contour import final_contour, weld_bead
 from hex_control.grinding.dynamic import DiskModel, ForceSchedule, HeightControl, simulate_pass
 from hex_control.grinding.model import GrindingProcess
-from hex_control.grinding.pass_plan import (Compliance, PlanningError, execute_plan, force_for_power, plan_pass,
-                                            plan_pass_static)
+from hex_control.grinding.pass_plan import (
+    Compliance,
+    PlanningError,
+    execute_plan,
+    force_for_power,
+    plan_pass,
+    plan_pass_static,
+)
 from hex_control.grinding.variation import ProcessVariation
 
 MODEL = DiskModel()
@@ -225,6 +231,7 @@ def test_process_variation_is_seeded_and_has_the_stated_spread():
     assert np.mean(friction) == pytest.approx(1.0, abs=0.01) and np.std(friction) == pytest.approx(0.10, abs=0.01)
     again = variation.draw(MODEL, 0, np.random.default_rng(7))
     assert again == variation.draw(MODEL, 0, np.random.default_rng(7))
-    dull = ProcessVariation(0.0, 0.0, dulling_per_pass=0.1, wear_mm_per_pass=0.5).draw(MODEL, 3, np.random.default_rng(0))
+    variation = ProcessVariation(0.0, 0.0, dulling_per_pass=0.1, wear_mm_per_pass=0.5)
+    dull = variation.draw(MODEL, 3, np.random.default_rng(0))
     assert dull.process.specific_energy_j_mm3 == pytest.approx(MODEL.process.specific_energy_j_mm3 * 1.1**3)
     assert dull.process.disk_radius_mm == pytest.approx(MODEL.process.disk_radius_mm - 1.5)

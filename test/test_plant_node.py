@@ -281,7 +281,8 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     operator, rogue = ros.node("operator"), ros.node("rogue")
     publishers = {(who, topic): who.create_publisher(msg_type, topic, 10) for who in (operator, rogue)
-                  for topic, msg_type in (("/plant/force_axis_command", ForceAxisCommand), ("/plant/strut_command", JointState))}
+                  for topic, msg_type in (("/plant/force_axis_command", ForceAxisCommand),
+                                          ("/plant/strut_command", JointState))}
     wait_until(lambda: all(p.get_subscription_count() >= 1 for p in publishers.values()), 15.0, what="the plant")
     names = [f"strut_{i}" for i in range(6)]
 
@@ -293,7 +294,8 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
 
     command(rogue, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3), "foreign_force_command")
     assert max(f.wrench.force.z for f in forces) == 0.0  # refused although first
-    command(operator, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3), until=lambda: forces[-1].wrench.force.z > 15.0)
+    command(operator, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3),
+            until=lambda: forces[-1].wrench.force.z > 15.0)
     command(operator, "/plant/strut_command", JointState(name=names, position=[2.6] * 6),
             until=lambda: states and states[-1].position[0] == pytest.approx(2.6, abs=1e-6))
 

@@ -7,8 +7,13 @@ import numpy as np
 import pytest
 
 from hex_control.kinematics.pru3 import Pru3Geometry, inverse_kinematics, velocity_jacobian
-from hex_control.kinematics.pru3_dynamics import (Pru3Inertia, actuator_dynamics, forward_dynamics,
-                                                  inverse_dynamics, simulate)
+from hex_control.kinematics.pru3_dynamics import (
+    Pru3Inertia,
+    actuator_dynamics,
+    forward_dynamics,
+    inverse_dynamics,
+    simulate,
+)
 from hex_control.kinematics.rotation import rotation_matrix
 
 GEOMETRY, INERTIA = Pru3Geometry(), Pru3Inertia()

@@ -6,8 +6,17 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.control.pru3_tracking import (DEFAULT_GAINS, STRATEGIES, Gains, _itae_or_inf, contour_error,
-                                               iae_table, optimize_gains, track, track_batch)
+from hex_control.control.pru3_tracking import (
+    DEFAULT_GAINS,
+    STRATEGIES,
+    Gains,
+    _itae_or_inf,
+    contour_error,
+    iae_table,
+    optimize_gains,
+    track,
+    track_batch,
+)
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,18 @@ import pytest
 
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.penalties import DeadlineCharge, InPathCharges, LatenessCharge, SideCharge
-from hex_control.grinding.sdp import (GRIND, QUIT, ROUNDING, WAIT, Charges, CutCorrelation, PlannerGrid, Policy,
-                                      build_controls, solve)
+from hex_control.grinding.sdp import (
+    GRIND,
+    QUIT,
+    ROUNDING,
+    WAIT,
+    Charges,
+    CutCorrelation,
+    PlannerGrid,
+    Policy,
+    build_controls,
+    solve,
+)
 from hex_control.grinding.sdp_reference import solve_reference
 from hex_control.grinding.stochastic import CutDepthModel
 

@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 import pytest
-
 import yaml
 
 from hex_control.config import config_file

@@ -91,6 +91,7 @@ def loop_over_ros(quick: bool) -> list[str]:
         notes += more_notes
         lines.append(f"real-time at {rate_hz} Hz: achieved {report.get('loop_rate_hz', math.nan):6.1f} Hz, "
                      f"missed {100 * report.get('missed_fraction', math.nan):5.2f} %, command latency "
-                     f"p50 {report.get('latency_p50_ms', math.nan):.2f} ms p99 {report.get('latency_p99_ms', math.nan):.2f} ms, "
+                     f"p50 {report.get('latency_p50_ms', math.nan):.2f} ms "
+                     f"p99 {report.get('latency_p99_ms', math.nan):.2f} ms, "
                      f"late ticks {report.get('late_ticks', 0)}, periods given up {report.get('dropped_periods', 0)}")
     return lines + notes

@@ -35,5 +35,6 @@ def sdp_speed(quick: bool) -> list[str]:
     if not quick:
         for states in (150, 300, 600):
             grid = PlannerGrid(material_states=states, horizon_s=2.0 * (states - 1), forces=32, feeds=8)
-            lines.append(f"scaling: {states} x {states} states: {best_time(lambda: solve(process, grid=grid), 1):.3f} s")
+            seconds = best_time(lambda: solve(process, grid=grid), 1)
+            lines.append(f"scaling: {states} x {states} states: {seconds:.3f} s")
     return lines

@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 
 from hex_control.control.energy_optimal import EnergyIndexController
-
 from hex_control.control.filters import low_pass, notch
 from hex_control.control.pi import TustinPI
 

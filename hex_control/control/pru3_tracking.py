@@ -211,7 +211,8 @@ def iae_table(strategy: str, run: TrackingRun) -> str:
     space (z, alpha, beta) for the CTC strategies and link space (L1-L3) for LSPD."""
     space, axes = ("task", ("Z", "alpha", "beta")) if strategy.startswith("ctc") else ("link", ("L1", "L2", "L3"))
     iae = run.iae(space)
-    lines = [f"{strategy.upper().replace('_', '+')}: IAE ({space} space)", "                " + "".join(f"{a:>12}" for a in axes)]
+    lines = [f"{strategy.upper().replace('_', '+')}: IAE ({space} space)",
+             "                " + "".join(f"{a:>12}" for a in axes)]
     for name in ("tracking", "contour"):
         lines.append(f"{name + ' error':16}" + "".join(f"{v:12.4g}" for v in iae[name]))
     return "\n".join(lines)

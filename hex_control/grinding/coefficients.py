@@ -78,7 +78,7 @@ def achievable_mean_force_n(process: GrindingProcess, force_n: float, commanded_
     pass needs more than F_max), scaled by F_max over the plan's peak force. A rough bead
     needs force peaks above the mean to cut its crests, so its mean force stays below F_max."""
     values = (force_n, commanded_depth_mm, planned_depth_mm, planned_peak_force_n)
-    if not all(math.isfinite(v) for v in values) or force_n <= 0 or commanded_depth_mm <= 0 or planned_peak_force_n <= 0:
+    if not all(math.isfinite(v) for v in values) or min(force_n, commanded_depth_mm, planned_peak_force_n) <= 0:
         raise ValueError(f"need a positive force, commanded depth and peak force, and a finite planned depth: {values}")
     zero_cut = process.zero_cut_force_n()
     if force_n <= zero_cut:

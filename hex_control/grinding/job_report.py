@@ -250,7 +250,8 @@ def _part_statistics(qualities: list) -> dict:
         return {}
     figure = lambda name, worst: {"mean": float(np.mean([q[name] for q in scanned])),  # noqa: E731
                                   "worst": float(worst([q[name] for q in scanned]))}
-    return {"parts_scanned": len(scanned), "gouge_mm": figure("gouge_mm", max), "ends_gouge_mm": figure("ends_gouge_mm", max),
+    return {"parts_scanned": len(scanned), "gouge_mm": figure("gouge_mm", max),
+            "ends_gouge_mm": figure("ends_gouge_mm", max),
             "highest_mm": figure("highest_mm", max), "rms_mm": figure("rms_mm", max),
             "max_deviation_mm": figure("max_deviation_mm", max),
             "parts_gouged_beyond_tolerance": int(sum(q["gouge_mm"] > TOLERANCE_MM for q in scanned)),

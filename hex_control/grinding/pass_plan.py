@@ -23,8 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from hex_control.grinding.contour import Contour, FinalContour, final_contour, positive_area
-from hex_control.grinding.dynamic import (DiskModel, ForceSchedule, HeightControl, PassSimulation,
-                                          RelaxedAngleControl, simulate_pass)
+from hex_control.grinding.dynamic import (
+    DiskModel,
+    ForceSchedule,
+    HeightControl,
+    PassSimulation,
+    RelaxedAngleControl,
+    simulate_pass,
+)
 from hex_control.grinding.model import WATT, GrindingProcess
 
 CONTROLS = ("height", "relaxed_angle")

@@ -85,7 +85,3 @@ class InPathCharges:
     def __post_init__(self):
         if self.per_pass < 0 or self.surface_finish_per_mm_s < 0:
             raise ValueError("in-path charges must be >= 0")
-
-
-def side_from_dict(data) -> SideCharge:
-    return data if isinstance(data, SideCharge) else SideCharge(**data)

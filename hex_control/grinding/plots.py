@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.colors import ListedColormap
 
-from hex_control.plotting import plt, save
 from hex_control.grinding.sdp import GRIND, QUIT, Policy
+from hex_control.plotting import plt, save
 
 
 def _window(ax, policy: Policy, values, title, label, cmap="viridis", trajectory=None):

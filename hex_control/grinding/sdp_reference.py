@@ -8,8 +8,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from hex_control.grinding.sdp import (GRIND, QUIT, WAIT, Charges, PlannerGrid, build_controls, transition_offsets,
-                                      transition_weights)
+from hex_control.grinding.sdp import (
+    GRIND,
+    QUIT,
+    WAIT,
+    Charges,
+    PlannerGrid,
+    build_controls,
+    transition_offsets,
+    transition_weights,
+)
 
 
 def solve_reference(process, charges: Charges, grid: PlannerGrid, cut_model) -> tuple[np.ndarray, np.ndarray]:

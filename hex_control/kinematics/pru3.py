@@ -201,7 +201,8 @@ def slider_accelerations(geometry: Pru3Geometry, q, q_dot, q_ddot, step: float =
     J_p along q_dot (seed 2.1.1, acceleration analysis)."""
     q, q_dot, q_ddot = _as_q(q), _as_q(q_dot), _as_q(q_ddot)
     jac = velocity_jacobian(geometry, q)
-    jac_dot = (velocity_jacobian(geometry, q + step * q_dot) - velocity_jacobian(geometry, q - step * q_dot)) / (2 * step)
+    ahead, behind = velocity_jacobian(geometry, q + step * q_dot), velocity_jacobian(geometry, q - step * q_dot)
+    jac_dot = (ahead - behind) / (2 * step)
     return np.einsum("nij,nj->ni", jac, q_ddot) + np.einsum("nij,nj->ni", jac_dot, q_dot)
 
 

@@ -31,8 +31,15 @@ from dataclasses import dataclass, fields
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hex_control.kinematics.pru3 import (_INDEPENDENT, _PARASITIC, Pru3Geometry, _as_q, _joint_jacobians,
-                                         inverse_kinematics, velocity_jacobian)
+from hex_control.kinematics.pru3 import (
+    _INDEPENDENT,
+    _PARASITIC,
+    Pru3Geometry,
+    _as_q,
+    _joint_jacobians,
+    inverse_kinematics,
+    velocity_jacobian,
+)
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
 KG_MM_S2_PER_N = 1000.0

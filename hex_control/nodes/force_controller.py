@@ -64,8 +64,8 @@ from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED
 from hex_control.nodes.message_info import info_subscription
-from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import ParameterError, declare_parameters
+from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.runtime import run_node
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, LoadPrediction

@@ -4,7 +4,8 @@
 shipped configuration, sim time from the plant); ``NodeGraph`` starts them as separate
 processes, each logging to its own file, and can stop, kill or restart one (the fault
 tests do). ``placement`` puts nodes on another host: a command prefix and environment per
-node, e.g. ``ip netns exec hexA`` with that host's ``ROS_STATIC_PEERS`` (scripts/two_hosts.sh). The same command lines work with the console scripts (``hex-plant`` ...) or
+node, e.g. ``ip netns exec hexA`` with that host's ``ROS_STATIC_PEERS`` (scripts/two_hosts.sh).
+The same command lines work with the console scripts (``hex-plant`` ...) or
 ``ros2 run hex_control plant`` in a full ROS 2 install.
 """
 

@@ -26,7 +26,6 @@ switches to it when ready.
 
 from __future__ import annotations
 
-
 import numpy as np
 from geometry_msgs.msg import PoseStamped
 from rcl_interfaces.msg import SetParametersResult

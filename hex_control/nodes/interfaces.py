@@ -18,7 +18,6 @@ import numpy as np
 from builtin_interfaces.msg import Duration as DurationMsg
 from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from hex_control.grinding.contour import Contour

@@ -39,8 +39,7 @@ from hex_control.config import config_file
 from hex_control.kinematics import Pru3Geometry, load_machine
 from hex_control.kinematics import pru3 as pru3_kinematics
 from hex_control.kinematics.rotation import rpy_from_quaternion
-from hex_control.kinematics.stewart import (CONSTRAINT_SETS, ForwardKinematicsError, check_poses,
-                                            forward_kinematics)
+from hex_control.kinematics.stewart import CONSTRAINT_SETS, ForwardKinematicsError, check_poses, forward_kinematics
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
@@ -162,7 +161,8 @@ class KinematicsCore:
         points = result.boundary_mm.reshape(-1, 3)
         response.volume_mm3 = result.volume_mm3
         response.center = _tool_pose([*result.center_mm, *orientation])
-        response.boundary_x_mm, response.boundary_y_mm, response.boundary_z_mm = (points[:, k].tolist() for k in range(3))
+        response.boundary_x_mm, response.boundary_y_mm, response.boundary_z_mm = (points[:, k].tolist()
+                                                                                 for k in range(3))
         response.limiting_constraint = [CONSTRAINT_SETS[s] if s >= 0 else "" for s in result.limiting_set.ravel()]
         response.slice_area_mm2 = [cross_section(self.machine, orientation, z, result.center_mm[:2], 180, eps)[0]
                                    for z in heights]

@@ -56,8 +56,16 @@ from hex_control.grinding.pass_plan import PlanningError, plan_forces
 from hex_control.grinding.tool_path import pass_tool_path
 from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, RESULTS, contour_from_message, contour_to_message,
-                                          part_quality_message, stamp_s, time_msg, tool_path_message)
+from hex_control.nodes.interfaces import (
+    LATCHED,
+    RESULTS,
+    contour_from_message,
+    contour_to_message,
+    part_quality_message,
+    stamp_s,
+    time_msg,
+    tool_path_message,
+)
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import in_background, run_node, wall_timer

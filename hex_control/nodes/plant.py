@@ -93,7 +93,6 @@ import time
 from collections import deque
 
 import numpy as np
-
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped, WrenchStamped
 from rclpy.node import Node
@@ -111,20 +110,29 @@ from hex_control.grinding.variation import ProcessVariation
 from hex_control.kinematics import Pru3Geometry, load_machine
 from hex_control.kinematics.pru3_dynamics import Pru3Inertia
 from hex_control.nodes.diagnostics import Diagnostics
-from hex_control.nodes.interfaces import (LATCHED, MAX_CONTOUR_LENGTH_MM, RESULTS, STREAM, TELEMETRY,
-                                          contour_to_message, part_quality_message, stamp_s,
-                                          strut_trajectory_from_message, time_msg)
+from hex_control.nodes.interfaces import (
+    LATCHED,
+    MAX_CONTOUR_LENGTH_MM,
+    RESULTS,
+    STREAM,
+    TELEMETRY,
+    contour_to_message,
+    part_quality_message,
+    stamp_s,
+    strut_trajectory_from_message,
+    time_msg,
+)
 from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
-from hex_control.plant.loop_timing import LoopTiming
-from hex_control.plant.pacing import RealTimePacer
-from hex_control.plant.machine import MachineParameters
-from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter, check_strokes
+from hex_control.plant.loop_timing import LoopTiming
+from hex_control.plant.machine import MachineParameters
+from hex_control.plant.pacing import RealTimePacer
+from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.pru3_machine import DRIVES, Pru3Machine
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
@@ -252,7 +260,8 @@ class PlantNode(Node):
             [speed, acceleration])) else None  # a machine file without limits: strokes only
         self.sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator,
                                   limiter)
-        self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)
+        self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"),
+                                           table.contact_mm)
         if is_pru3:
             self.check_struts = machine.check_command
         else:
@@ -513,7 +522,8 @@ class PlantNode(Node):
         self.result_publisher.publish(result)
         self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
         if m.burn_detected or m.stall_detected:  # until a pass without
-            self.diagnostics.fault("last_pass", f"pass {m.pass_index}: {'burn' if m.burn_detected else 'stall'} detected")
+            what = "burn" if m.burn_detected else "stall"
+            self.diagnostics.fault("last_pass", f"pass {m.pass_index}: {what} detected")
         else:
             self.diagnostics.clear("last_pass")
         self.get_logger().info(f"pass {m.pass_index} of {m.job_id}: cut {m.measured_cut_depth_mm:.4f} mm, "

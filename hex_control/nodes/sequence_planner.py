@@ -46,8 +46,19 @@ from rclpy.node import Node
 from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import load_planner_config, parse_planner_config
-from hex_control.grinding.job import (ABORTED, CANCELLED, DONE, QUIT, REJECTED, GrindingJob, JobGoal,
-                                      new_job_id, read_goal, read_model, unfinished_logs)
+from hex_control.grinding.job import (
+    ABORTED,
+    CANCELLED,
+    DONE,
+    QUIT,
+    REJECTED,
+    GrindingJob,
+    JobGoal,
+    new_job_id,
+    read_goal,
+    read_model,
+    unfinished_logs,
+)
 from hex_control.grinding.sdp import solve
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import LATCHED, RESULTS
@@ -203,7 +214,8 @@ class SequencePlannerNode(Node):
         _, policy = self._policy_for(goal, self.model_update.solved_process)
         self.job = GrindingJob.resume(logs[-1], policy, self.charges)
         self.get_logger().info(f"resumed job {goal.job_id} at pass {self.job.state.passes} "
-                               f"(t = {self.job.state.time_remaining_s:.1f} s, X = {self.job.state.material_mm:.3f} mm)")
+                               f"(t = {self.job.state.time_remaining_s:.1f} s, "
+                               f"X = {self.job.state.material_mm:.3f} mm)")
         self.diagnostics.count("resumed_jobs")
         self._advance()
 
@@ -237,7 +249,8 @@ class SequencePlannerNode(Node):
 
     def _check_bounds(self, goal: JobGoal) -> None:
         """Bounded work: a goal whose policy would take unbounded time and memory is refused."""
-        for value, name, unit in ((goal.deadline_s, "max_deadline_s", "s"), (goal.material_mm, "max_material_mm", "mm")):
+        for value, name, unit in ((goal.deadline_s, "max_deadline_s", "s"),
+                                  (goal.material_mm, "max_material_mm", "mm")):
             limit = self.get_parameter(name).value
             if value > limit:
                 raise ValueError(f"{name.removeprefix('max_')} {value:g} {unit} is beyond this planner's {name} "
@@ -275,7 +288,8 @@ class SequencePlannerNode(Node):
         self._command = command
         self._sent_at = time.monotonic()
         self._unacknowledged = (command, self._sent_at)
-        feedback = GrindBead.Feedback(pass_index=command.pass_index, material_remaining_mm=command.material_remaining_mm,
+        feedback = GrindBead.Feedback(pass_index=command.pass_index,
+                                      material_remaining_mm=command.material_remaining_mm,
                                       time_remaining_s=command.time_remaining_s,
                                       expected_penalty=command.expected_penalty, command=command)
         self.feedback_pub.publish(feedback)

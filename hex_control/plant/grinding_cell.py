@@ -150,10 +150,6 @@ class GrindingCell:
                         "force_s": 0.0, "peak_force": 0.0, "feed_s": 0.0, "energy": 0.0, "peak_power": 0.0,
                         "window": [], "burn": False}
 
-    @property
-    def in_pass(self) -> bool:
-        return self.current is not None
-
     def advance(self, duration_s: float, centre_mm, table_mm: float) -> float:
         """Grind for ``duration_s`` while the centre moves to ``centre_mm`` = (x, H) (bead
         frame) with the table at ``table_mm``. Returns the table position of the work

@@ -34,6 +34,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+
 from hex_control.kinematics.pru3 import Pru3Geometry, forward_kinematics, inverse_kinematics, velocity_jacobian
 from hex_control.kinematics.pru3_dynamics import KG_MM_S2_PER_N, Pru3Inertia, generalized_dynamics
 from hex_control.plant.machine import Machine, MachineParameters
@@ -100,11 +101,13 @@ class Pru3Machine:
         low, high = self.geometry.stroke_mm
         if not np.all((lengths_mm >= low) & (lengths_mm <= high)):
             raise ValueError(f"slider positions must be within the stroke {low:g}..{high:g} mm")
-        if self.feed is not None and not self.geometry.feed_stroke_mm[0] <= joints_mm[3] <= self.geometry.feed_stroke_mm[1]:
+        feed = self.geometry.feed_stroke_mm
+        if self.feed is not None and not feed[0] <= joints_mm[3] <= feed[1]:
             raise ValueError(f"the feed stage must stay within {self.geometry.feed_stroke_mm} mm")
         q, _ = forward_kinematics(self.geometry, lengths_mm, self.pose_q, tolerance_mm=1e-6)
         if np.abs(q[1:]).max() > self.geometry.tilt_max_rad:
-            raise ValueError(f"slider positions tilt the platform beyond {np.degrees(self.geometry.tilt_max_rad):g} deg")
+            limit_deg = np.degrees(self.geometry.tilt_max_rad)
+            raise ValueError(f"slider positions tilt the platform beyond {limit_deg:g} deg")
 
     @property
     def lengths_m(self) -> np.ndarray:

@@ -127,12 +127,6 @@ def simulate(gain_scale: float, rate_hz: float, roll_off: RollOff, setpoint, dur
     return simulate_force_loop(table, law, setpoint, period, duration_s)
 
 
-def tracking_rms(log: dict, after_s: float = 0.0) -> float:
-    """RMS of desired minus true force (N) from ``after_s`` on."""
-    keep = log["time"] >= after_s
-    return float(np.sqrt(np.mean((log["setpoint"][keep] - log["force"][keep]) ** 2)))
-
-
 def mean_force_rms(log: dict, window_s: float = 0.05) -> tuple[float, float]:
     """(RMS of desired minus mean force, RMS of the ripple about that mean), in N. The mean
     is a centred moving average over ``window_s`` (one disk revolution at 20 Hz): what the
