@@ -9,7 +9,7 @@
 #
 # On two real computers: run the machine-side nodes on one and the rest on the other,
 # with ROS_STATIC_PEERS=<the other's address> and the same ROS_DOMAIN_ID on both
-# (README, "More than one machine").
+# (docs/job.md, "More than one machine").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 HEXCTL="$PWD/.venv/bin/hexctl"

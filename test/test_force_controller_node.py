@@ -124,9 +124,10 @@ def test_tracks_a_force_step_then_the_watchdog_retracts(ros):
 
 
 def test_a_saturated_command_warns_until_it_comes_off_the_limit(ros):
-    """Issue 21 items 8-9: with the work out of reach the README's recipe measured 0 N, the
-    command pinned at +2 mm, and the controller said OK. Now a command held at a limit for
-    saturation_warn_s (1 s) while tracking is a WARN that clears when the work is reached."""
+    """Issue 21 items 8-9: with the work out of reach the stand-alone force-loop recipe
+    (docs/nodes.md) measured 0 N, the command pinned at +2 mm, and the controller said OK.
+    Now a command held at a limit for saturation_warn_s (1 s) while tracking is a WARN that
+    clears when the work is reached."""
     from hex_control.nodes.diagnostics import OK, WARN
 
     plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.5)

@@ -15,8 +15,8 @@ weight at a shift of k grid steps). The kernels are computed once, as spectra; e
 stage's J (extended by its end values, as the lookup holds it constant beyond the grid)
 is transformed once per feed, and the correlation of a feed with all its forces is one
 product of spectra and one inverse real FFT (:class:`CutCorrelation`): the same sums as a
-Toeplitz matrix product, to rounding (1e-16 of J's largest value), in about a third of
-its time on the benchmark grid, whose kernels span up to 282 of its 300 states. Stages
+Toeplitz matrix product, to rounding (1e-16 of J's largest value), and faster where the
+kernels are wide (``hexctl bench sdp``). Stages
 closer together than the shortest pass do not depend on each other, so a whole block of
 them is one product per feed. Controls within that rounding of the best tie; the tie goes
 to the lowest force and the fastest feed.

@@ -203,7 +203,7 @@ PARAMETERS = {
     "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
                        0.0, 1e5),
     "force_command_owner": Spec("", "node whose force-axis commands the plant obeys, e.g. /force_controller; "
-                                "'' = the first to publish (command ownership, README threat model)"),
+                                "'' = the first to publish (command ownership, docs/graph.md threat model)"),
     "strut_command_owner": Spec("", "node whose strut commands and trajectories the plant obeys, e.g. "
                                 "/kinematics; '' = the first to publish"),
     "grinding": Spec(False, "hold a workpiece: a bead ground where the struts put the disk"),

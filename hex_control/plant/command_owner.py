@@ -2,7 +2,7 @@
 
 An industrial cell's drive takes commands from one master. DDS lets any process on the
 domain publish on ``/plant/force_axis_command``; without DDS security (absent from these
-wheels, README "Threat model") the plant can still refuse all but one publisher, told
+wheels, docs/graph.md "Threat model") the plant can still refuse all but one publisher, told
 apart by the GID each message carries in its message info:
 
 - The owner is the first publisher heard, or, if one is configured, the first publisher
