@@ -69,6 +69,18 @@ class Pru3Geometry:
         """The sliders, then the feed stage if there is one."""
         return ["strut_0", "strut_1", "strut_2"] + (["feed_x"] if self.feed_stroke_mm is not None else [])
 
+    def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """(joint positions (n, joints) mm, reachable (n,)) of n tool poses (x, y, z mm,
+        roll, pitch, yaw rad): the head holds z, alpha = roll, beta = pitch; the feed stage,
+        if any, carries x (see :func:`joint_check`)."""
+        check = joint_check(self, poses)
+        return check.positions_mm, check.reachable
+
+    def tool_tracker(self) -> Pru3ToolTracker:
+        """Forward kinematics of the head in motion, warm-started from the last pose:
+        ``tool_position_mm(joint positions mm)`` -> the tool point (3,) mm."""
+        return Pru3ToolTracker(self)
+
     @property
     def joint_speed_max_mm_s(self) -> np.ndarray:
         """Each joint's speed limit (mm/s), in ``joint_names`` order."""
@@ -239,3 +251,48 @@ def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0,
             raise ValueError(f"singular Jacobian at q = {q}")
         q = q + np.linalg.solve(jac, error)
     raise ValueError(f"FK did not converge in {max_iterations} iterations")
+
+
+@dataclass(frozen=True)
+class Pru3JointCheck:
+    """Inverse kinematics of n tool poses on the head (and its feed stage)."""
+
+    positions_mm: np.ndarray  # (n, joints): sliders L_1..L_3, then the feed stage's x
+    reachable: np.ndarray  # (n,) within stroke, tilt and the rockers' geometry
+    stroke_margin_mm: np.ndarray  # (n,) least distance of any joint to its stroke's ends (< 0: outside)
+    tilt_margin_rad: np.ndarray  # (n,) tilt_max_rad minus the larger of |alpha|, |beta|
+
+
+def joint_check(geometry: Pru3Geometry, poses) -> Pru3JointCheck:
+    """Joint positions and margins of n tool poses (x, y, z mm, roll, pitch, yaw rad)."""
+    rows = np.asarray(poses, float).reshape(-1, 6)
+    pose = inverse_kinematics(geometry, rows[:, [2, 3, 4]])
+    low, high = geometry.stroke_mm
+    sliders = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
+    stroke = np.minimum(sliders - low, high - sliders).min(axis=1)
+    reachable = pose.reachable.copy()
+    positions = pose.lengths_mm
+    if geometry.feed_stroke_mm is not None:  # the feed stage carries x
+        feed = feed_positions_mm(rows[:, 0], pose)
+        low, high = geometry.feed_stroke_mm
+        stroke = np.minimum(stroke, np.minimum(feed - low, high - feed))
+        reachable &= stroke >= 0
+        positions = np.column_stack([pose.lengths_mm, feed])
+    tilt = geometry.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
+    return Pru3JointCheck(positions, reachable, stroke, tilt)
+
+
+class Pru3ToolTracker:
+    """The tool point of the head in motion from its joint positions, forward kinematics
+    warm-started from the last pose (the head moves little in one control period)."""
+
+    def __init__(self, geometry: Pru3Geometry, guess=(200.0, 0.0, 0.0), tolerance_mm: float = 1e-7):
+        self.geometry, self.tolerance_mm = geometry, tolerance_mm
+        self.q = np.asarray(guess, float)
+
+    def tool_position_mm(self, positions_mm) -> np.ndarray:
+        """The tool point (3,) mm: sliders, then the feed stage if any."""
+        positions_mm = np.asarray(positions_mm, float)
+        self.q, _ = forward_kinematics(self.geometry, positions_mm[:3], self.q, tolerance_mm=self.tolerance_mm)
+        pose = inverse_kinematics(self.geometry, self.q)
+        return tool_positions_mm(pose, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]

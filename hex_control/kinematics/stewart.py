@@ -84,6 +84,22 @@ class StewartGeometry:
         object.__setattr__(self, "_nominal_platform", self._nominal_base @ r_home)  # rows: R_home^T s
 
     @property
+    def joint_names(self) -> list[str]:
+        """The struts, in the order of every strut array."""
+        return [f"strut_{i}" for i in range(6)]
+
+    def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """(strut lengths (n, 6) mm, reachable (n,)) of n tool poses (x, y, z mm, roll,
+        pitch, yaw rad): inverse kinematics with constraint sets I-IV, vectorized."""
+        check = check_poses(self, poses)
+        return check.lengths_mm, check.reachable
+
+    def tool_tracker(self) -> TrackingForwardKinematics:
+        """Forward kinematics of the machine in motion, warm-started from the last pose:
+        ``tool_position_mm(strut lengths mm)`` -> the tool point (3,) mm."""
+        return TrackingForwardKinematics(self)
+
+    @property
     def joint_speed_max_mm_s(self) -> np.ndarray:
         """Each strut's speed limit (mm/s)."""
         return np.full(6, self.strut_speed_max_mm_s)
@@ -399,6 +415,10 @@ class TrackingForwardKinematics:
     def _reset(self, pose: np.ndarray) -> None:
         self.pose = pose.copy()
         self._lengths, self._jacobian = _lengths_and_jacobian(self.geometry, self.pose)
+
+    def tool_position_mm(self, lengths_mm) -> np.ndarray:
+        """The tool point (3,) mm where strut lengths ``lengths_mm`` hold it."""
+        return self.solve(lengths_mm)[:3]
 
     def solve(self, lengths_mm) -> np.ndarray:
         """The pose (6,) whose strut lengths are ``lengths_mm`` (within tolerance_mm)."""

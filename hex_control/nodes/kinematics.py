@@ -72,38 +72,18 @@ class KinematicsCore:
         self.machine = machine
         self.document = document
         self.is_pru3 = isinstance(machine, Pru3Geometry)
-        self.joint_names = machine.joint_names if self.is_pru3 else [f"strut_{i}" for i in range(6)]
+        self.joint_names = machine.joint_names
         self.strut_count = len(self.joint_names)
-
-    def _pru3_joints(self, rows: np.ndarray):
-        """(reachable, stroke margin mm, tilt margin rad, joint positions mm) of 3-PRU poses."""
-        pose = pru3_kinematics.inverse_kinematics(self.machine, rows[:, [2, 3, 4]])
-        low, high = self.machine.stroke_mm
-        lengths = np.nan_to_num(pose.lengths_mm, nan=-np.inf)
-        stroke = np.minimum(lengths - low, high - lengths).min(axis=1)
-        reachable = pose.reachable.copy()
-        if self.machine.feed_stroke_mm is not None:  # the feed stage carries x
-            feed = pru3_kinematics.feed_positions_mm(rows[:, 0], pose)
-            low, high = self.machine.feed_stroke_mm
-            stroke = np.minimum(stroke, np.minimum(feed - low, high - feed))
-            reachable &= stroke >= 0
-            lengths = np.column_stack([pose.lengths_mm, feed])
-        else:
-            lengths = pose.lengths_mm
-        tilt = self.machine.tilt_max_rad - np.abs(pose.full[:, 3:5]).max(axis=1)
-        return reachable, stroke, tilt, lengths
 
     def joint_positions_mm(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(joint positions (n, joints) mm, reachable (n,)) of n poses, in one vectorized call."""
-        if self.is_pru3:
-            reachable, _, _, lengths = self._pru3_joints(rows)
-            return lengths, reachable
-        check = check_poses(self.machine, rows)
-        return check.lengths_mm, check.reachable
+        return self.machine.joint_positions_mm(rows)
 
     def reports(self, rows: np.ndarray) -> list[ConstraintReport]:
         if self.is_pru3:
-            reachable, stroke, tilt, lengths = self._pru3_joints(rows)
+            check = pru3_kinematics.joint_check(self.machine, rows)
+            reachable, stroke, tilt, lengths = (check.reachable, check.stroke_margin_mm, check.tilt_margin_rad,
+                                                check.positions_mm)
             out = []
             for k in range(len(rows)):
                 report = ConstraintReport(reachable=bool(reachable[k]),

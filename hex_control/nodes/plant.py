@@ -237,7 +237,7 @@ class PlantNode(Node):
         machine_geometry, machine_document = load_machine(p("machine_file"))
         is_pru3 = isinstance(machine_geometry, Pru3Geometry)
         # the kinematics node's names for the same machine, unless told otherwise
-        names = machine_geometry.joint_names if is_pru3 else [f"strut_{i}" for i in range(6)]
+        names = machine_geometry.joint_names
         self.strut_names = [n for n in p("strut_names") if n] or names
         if len(self.strut_names) != len(names):
             raise ValueError(f"strut_names: the machine has {len(names)} joints")

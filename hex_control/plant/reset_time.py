@@ -19,8 +19,6 @@ import numpy as np
 
 from hex_control.grinding.tool_path import BeadFrame, PathTiming, pass_tool_path
 from hex_control.kinematics import Pru3Geometry, StewartGeometry
-from hex_control.kinematics import pru3 as pru3_kinematics
-from hex_control.kinematics.stewart import strut_lengths
 from hex_control.plant.machine import Machine, MachineParameters
 from hex_control.plant.pru3_machine import Pru3Machine
 from hex_control.shaping.filter import ShaperFilter
@@ -36,15 +34,8 @@ class ResetTime:
 
 
 def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.ndarray:
-    if isinstance(machine, Pru3Geometry):
-        # the 3-PRU holds z, alpha, beta: the tool's height drives it; x is the feed stage's
-        q = np.column_stack([positions_mm[:, 2], np.zeros(len(positions_mm)), np.zeros(len(positions_mm))])
-        pose = pru3_kinematics.inverse_kinematics(machine, q)
-        if machine.feed_stroke_mm is None:
-            return pose.lengths_mm / 1000.0
-        return np.column_stack([pose.lengths_mm, pru3_kinematics.feed_positions_mm(positions_mm[:, 0], pose)]) / 1000.0
     poses = np.column_stack([positions_mm, np.tile(orientation_rpy_rad, (len(positions_mm), 1))])
-    return strut_lengths(machine, poses) / 1000.0
+    return machine.joint_positions_mm(poses)[0] / 1000.0
 
 
 def pass_strut_lengths_m(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,

@@ -11,8 +11,6 @@ import numpy as np
 
 from hex_control.grinding.tool_path import BeadFrame
 from hex_control.kinematics import Pru3Geometry, StewartGeometry
-from hex_control.kinematics import pru3 as pru3_kinematics
-from hex_control.kinematics.stewart import TrackingForwardKinematics
 
 
 class ToolLocator:
@@ -21,20 +19,10 @@ class ToolLocator:
 
     def __init__(self, machine: StewartGeometry | Pru3Geometry, frame: BeadFrame):
         self.machine, self.frame = machine, frame
-        self.is_pru3 = isinstance(machine, Pru3Geometry)
-        if self.is_pru3:
-            self.guess = np.asarray((200.0, 0.0, 0.0), float)
-        else:
-            self.forward = TrackingForwardKinematics(machine)
+        self.tracker = machine.tool_tracker()
 
     def position_mm(self, lengths_m) -> np.ndarray:
-        lengths_mm = np.asarray(lengths_m, float) * 1000.0
-        if self.is_pru3:  # sliders, then the feed stage if any
-            q, _ = pru3_kinematics.forward_kinematics(self.machine, lengths_mm[:3], self.guess, tolerance_mm=1e-7)
-            self.guess = q
-            pose = pru3_kinematics.inverse_kinematics(self.machine, q)
-            return pru3_kinematics.tool_positions_mm(pose, lengths_mm[3] if len(lengths_mm) > 3 else 0.0)[0]
-        return self.forward.solve(lengths_mm)[:3]
+        return self.tracker.tool_position_mm(np.asarray(lengths_m, float) * 1000.0)
 
     def centre_mm(self, lengths_m, deflection_mm: float = 0.0) -> tuple[float, float]:
         offset = self.position_mm(lengths_m) - np.asarray(self.frame.origin_mm)
