@@ -6,6 +6,8 @@ import argparse
 import signal
 import sys
 
+from hex_control.shaping.shapers import SHAPERS
+
 MACHINES = {"hexapod": "machines/nist_ingersoll.yaml", "pru3": "machines/pru3_feed.yaml"}  # hexctl demo --machine
 
 
@@ -81,7 +83,8 @@ def _parser() -> argparse.ArgumentParser:
     shaper = commands.add_parser("shaper", help="design and plot input shapers (seed 003)")
     shaper_verbs = shaper.add_subparsers(dest="verb", required=True)
     shaper_design = shaper_verbs.add_parser("design", help="print the impulse sequence of a shaper")
-    shaper_design.add_argument("--type", default="zvd", help="zv, zvd, zvdd, mzv, ei, 2hump_ei, 3hump_ei, optimized")
+    shaper_design.add_argument("--type", default="zvd", choices=[*SHAPERS, "optimized"],
+                               help="a closed-form shaper, or optimized (the seed's evolution design)")
     shaper_design.add_argument("--frequency", type=float, default=1.0, help="design frequency (Hz)")
     shaper_design.add_argument("--damping", type=float, default=0.0)
     shaper_design.add_argument("--vtol", type=float, default=0.05, help="vibration tolerance of EI shapers")
@@ -94,7 +97,8 @@ def _parser() -> argparse.ArgumentParser:
                                help="report the worst V over this band of frequency ratios")
     shaper_design.add_argument("--json", action="store_true")
     shaper_plot = shaper_verbs.add_parser("plot", help="sensitivity curves and step responses (PNG)")
-    shaper_plot.add_argument("--types", nargs="*", default=["zv", "zvd", "ei", "2hump_ei", "3hump_ei"])
+    shaper_plot.add_argument("--types", nargs="*", default=["zv", "zvd", "ei", "2hump_ei", "3hump_ei"],
+                             choices=list(SHAPERS))
     shaper_plot.add_argument("--frequency", type=float, default=5.0, help="design frequency (Hz)")
     shaper_plot.add_argument("--damping", type=float, default=0.02)
     shaper_plot.add_argument("--mode", type=float, default=None, help="mode frequency of the step responses (Hz)")

@@ -128,3 +128,16 @@ def test_third_order_table_tracks_like_the_two_pole_fit_at_low_frequency():
     assert times["two_pole"] == pytest.approx(times["third_order"] + 0.004, abs=0.002)
     with pytest.raises(ValueError, match="position_loop"):
         ForceTable(ForceTableParameters(position_loop="fourth"))
+
+
+def test_force_laws_are_built_by_name_from_the_controllers_parameters():
+    from hex_control.control.force_law import FORCE_LAWS, EnergyForceLaw, make_force_law
+    from hex_control.nodes.force_controller import PARAMETERS
+
+    parameters = {name: spec.default for name, spec in PARAMETERS.items()}
+    assert set(FORCE_LAWS) == {"pi", "energy_optimal"} == set(PARAMETERS["law"].choices)
+    pi = make_force_law("pi", parameters, 0.005, (-2.0, 2.0))
+    assert isinstance(pi, PIForceLaw) and pi.pi.kp == parameters["kp_mm_per_n"]
+    assert isinstance(make_force_law("energy_optimal", parameters, 0.005, (-2.0, 2.0)), EnergyForceLaw)
+    with pytest.raises(ValueError, match="law must be one of pi, energy_optimal"):
+        make_force_law("bang_bang", parameters, 0.005, (-2.0, 2.0))

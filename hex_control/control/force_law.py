@@ -7,17 +7,33 @@ position command (mm).
 - :class:`EnergyForceLaw`: the energy-index optimal control of seed 004 (eq. 9-10) on the
   table's position loop (eq. 7.3), with the table position and speed recovered from the
   measured force through the compliance K_x.
+
+Each is a :class:`ForceLaw`; ``FORCE_LAWS`` names them, and :func:`make_force_law` builds
+one from the force controller's parameters (a new law: a class and a builder here).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Callable, Mapping, Protocol
 
 from hex_control.control.energy_optimal import EnergyIndexController
 from hex_control.control.filters import low_pass, notch
 from hex_control.control.pi import TustinPI
 
 ROLL_OFFS = ("none", "lowpass", "notch")
+
+
+class ForceLaw(Protocol):
+    """A table position command (mm) from the desired and measured normal force (N)."""
+
+    def reset(self, output: float) -> None:
+        """Bumpless start from a held command (mm)."""
+
+    def hold(self, output: float) -> None:
+        """The loop is not running (watchdog): follow the held command (mm)."""
+
+    def command(self, desired_n: float, measured_n: float, feed_forward_mm: float = 0.0) -> float: ...
 
 
 def roll_off_filter(kind: str, frequency_hz: float, period_s: float, quality: float = 0.5):
@@ -93,3 +109,26 @@ class EnergyForceLaw:
         target = self.contact_mm + desired_n / self.stiffness
         correction = float(self.law.command(self._position, speed, target)[0])
         return min(max(target + correction + feed_forward_mm, self.output_min), self.output_max)
+
+
+def _pi_law(p: Mapping, period_s: float, limits_mm: tuple[float, float]) -> PIForceLaw:
+    return PIForceLaw(TustinPI(p["kp_mm_per_n"], p["ki_mm_per_n_s"], period_s, *limits_mm),
+                      roll_off_filter(p["roll_off"], p["roll_off_hz"], period_s, p["roll_off_quality"]))
+
+
+def _energy_law(p: Mapping, period_s: float, limits_mm: tuple[float, float]) -> EnergyForceLaw:
+    return EnergyForceLaw(period_s, p["stiffness_n_per_mm"], p["contact_mm"], q1=p["energy_q1"], q2=p["energy_q2"],
+                          r=p["energy_r"], correction_limit_mm=p["energy_correction_limit_mm"])
+
+
+#: the force laws by name, each built from the force controller's parameters
+FORCE_LAWS: dict[str, Callable[[Mapping, float, tuple[float, float]], ForceLaw]] = {
+    "pi": _pi_law, "energy_optimal": _energy_law}
+
+
+def make_force_law(name: str, parameters: Mapping, period_s: float, limits_mm: tuple[float, float]) -> ForceLaw:
+    """The force law ``name`` (``FORCE_LAWS``) from the controller's parameter values, at
+    ``period_s`` with the command limited to ``limits_mm``."""
+    if name not in FORCE_LAWS:
+        raise ValueError(f"law must be one of {', '.join(FORCE_LAWS)}, got {name!r}")
+    return FORCE_LAWS[name](parameters, period_s, limits_mm)

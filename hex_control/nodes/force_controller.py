@@ -57,8 +57,7 @@ from rclpy.node import Node
 from rclpy.time import Time
 from std_msgs.msg import Float64
 
-from hex_control.control.force_law import ROLL_OFFS, EnergyForceLaw, PIForceLaw, roll_off_filter
-from hex_control.control.pi import TustinPI
+from hex_control.control.force_law import FORCE_LAWS, ROLL_OFFS, make_force_law
 from hex_control.control.stamp_guard import Stamp, StampGuard
 from hex_control.control.touch_down import TouchDown
 from hex_control.nodes.diagnostics import Diagnostics
@@ -78,7 +77,7 @@ PARAMETERS = {
     "trigger": Spec("timer", "timer: a period of the node clock; measurement: each new wrench (lock-step)",
                     choices=("timer", "measurement")),
     "law": Spec("pi", "force law: PI (seed 002 eq. 7.6) or energy-optimal (seed 004 eq. 9-10)",
-                choices=("pi", "energy_optimal")),
+                choices=tuple(FORCE_LAWS)),
     "kp_mm_per_n": Spec(0.002, "PI proportional gain", 0.0, 1.0),
     "ki_mm_per_n_s": Spec(0.05, "PI integral gain", 0.0, 100.0),
     "output_min_mm": Spec(-2.0, "lowest table command: the retracted stop", -50.0, 50.0),
@@ -124,14 +123,7 @@ class ForceControllerNode(Node):
         self.limits = (p("output_min_mm"), p("output_max_mm"))
         if not self.limits[0] < self.limits[1]:
             raise ParameterError(f"output_min_mm {self.limits[0]} must be below output_max_mm {self.limits[1]}")
-        if p("law") == "pi":
-            self.law = PIForceLaw(TustinPI(p("kp_mm_per_n"), p("ki_mm_per_n_s"), self.period_s, *self.limits),
-                                  roll_off_filter(p("roll_off"), p("roll_off_hz"), self.period_s,
-                                                  p("roll_off_quality")))
-        else:
-            self.law = EnergyForceLaw(self.period_s, p("stiffness_n_per_mm"), p("contact_mm"), q1=p("energy_q1"),
-                                      q2=p("energy_q2"), r=p("energy_r"),
-                                      correction_limit_mm=p("energy_correction_limit_mm"))
+        self.law = make_force_law(p("law"), {name: p(name) for name in PARAMETERS}, self.period_s, self.limits)
         self.law.reset(self.limits[0])
         self.touch_down = TouchDown(p("contact_mm"), p("touch_standoff_mm"), p("touch_speed_mm_s"),
                                     p("touch_settle_s"), p("touch_felt_n"))
