@@ -3,11 +3,14 @@ limits, inverse kinematics of tool poses to joint positions, and a warm-started 
 kinematics of the tool point. The nodes, the tool locator and the reset-time measurement
 ask these and never the machine's type."""
 
+from dataclasses import dataclass
+
 import numpy as np
 import pytest
 
 from hex_control.config import config_file
-from hex_control.kinematics import load_machine
+from hex_control.kinematics import MACHINE_TYPES, load_machine
+from hex_control.kinematics.machine_kind import ConstraintCheck
 
 MACHINES = ["nist_ingersoll", "generic_6_6", "pru3", "pru3_feed"]
 
@@ -40,3 +43,143 @@ def test_joint_positions_and_the_tool_tracker_agree(machine_file):
     tracker = machine.tool_tracker()
     for pose, joint_mm in zip(poses[:3], positions[:3]):  # a moving machine: each solve starts at the last
         np.testing.assert_allclose(tracker.tool_position_mm(joint_mm)[held], pose[held], atol=1e-6)
+
+
+@dataclass(frozen=True)
+class CartesianStage:
+    """A toy third machine kind: three orthogonal linear axes carrying the tool, which keeps
+    its orientation (any other is unreachable). Only what every kind answers, nothing more."""
+
+    strokes_mm: tuple = ((-300.0, 300.0), (-300.0, 300.0), (0.0, 500.0))
+    name: str = "cartesian_stage"
+    plant_drive = "strut_servos"
+    maps_workspace = False
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "CartesianStage":
+        return cls(tuple(tuple(float(v) for v in axis) for axis in data["strokes_mm"]), str(data["name"]))
+
+    @property
+    def joint_names(self) -> list[str]:
+        return ["axis_x", "axis_y", "axis_z"]
+
+    @property
+    def joint_speed_max_mm_s(self) -> np.ndarray:
+        return np.full(3, 250.0)
+
+    @property
+    def joint_acceleration_max_mm_s2(self) -> np.ndarray:
+        return np.full(3, 2500.0)
+
+    def constraint_check(self, poses) -> ConstraintCheck:
+        rows = np.asarray(poses, float).reshape(-1, 6)
+        low, high = np.array(self.strokes_mm).T
+        stroke = np.minimum(rows[:, :3] - low, high - rows[:, :3]).min(axis=1)
+        level = -np.abs(rows[:, 3:]).max(axis=1)  # the tool cannot turn
+        margins = np.column_stack([stroke, level, np.full(len(rows), np.inf), np.full(len(rows), np.inf)])
+        satisfied = np.column_stack([stroke >= 0, level >= 0, np.ones((len(rows), 2), bool)])
+        return ConstraintCheck(rows[:, :3].copy(), satisfied, margins)
+
+    def joint_positions_mm(self, poses):
+        check = self.constraint_check(poses)
+        return check.positions_mm, check.reachable
+
+    def check_joint_positions_mm(self, positions_mm) -> None:
+        positions = np.asarray(positions_mm, float).reshape(-1)
+        if positions.shape != (3,) or not self.constraint_check(np.r_[positions, 0, 0, 0]).reachable[0]:
+            raise ValueError(f"axes outside their strokes {self.strokes_mm} mm: {positions}")
+
+    def forward_pose(self, positions_mm, guess, tolerance_mm=1e-9, max_iterations=50):
+        return np.r_[np.asarray(positions_mm, float), 0.0, 0.0, 0.0], 0, 0.0
+
+    def tool_tracker(self):
+        return self
+
+    def tool_position_mm(self, positions_mm) -> np.ndarray:
+        return np.asarray(positions_mm, float)[:3].copy()
+
+
+STAGE_YAML = """machine:
+  type: cartesian_stage
+  name: toy_stage
+  strokes_mm: [[-300, 300], [-300, 300], [0, 500]]
+bead_frame:
+  origin_mm: [-100.0, 0.0, 150.0]
+  along: [1.0, 0.0, 0.0]
+  up: [0.0, 0.0, 1.0]
+  orientation_rpy_deg: [0.0, 0.0, 0.0]
+"""
+
+
+@pytest.fixture
+def stage_file(tmp_path, monkeypatch):
+    monkeypatch.setitem(MACHINE_TYPES, "cartesian_stage", CartesianStage)
+    path = tmp_path / "stage.yaml"
+    path.write_text(STAGE_YAML)
+    return path
+
+
+def test_a_third_machine_kind_needs_only_its_module_and_yaml(stage_file):
+    """Through inverse and forward kinematics (the kinematics node's requests), the tool
+    locator and the plant's drive, limits and reset-time measurement, with no code that
+    knows the kind."""
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.nodes.kinematics import KinematicsCore
+    from hex_control.plant.drives import make_drive
+    from hex_control.plant.limits import StrutRateLimiter
+    from hex_control.plant.reset_time import measure_reset_time
+    from hex_control.plant.simulator import PlantSimulator
+    from hex_control.plant.tool_locator import ToolLocator
+
+    stage, document = load_machine(stage_file)
+    assert isinstance(stage, CartesianStage) and stage.name == "toy_stage"
+    core = KinematicsCore(stage, document)
+    poses = np.array([[10.0, -20.0, 200.0, 0, 0, 0], [10.0, -20.0, 900.0, 0, 0, 0], [0.0, 0.0, 200.0, 0.1, 0, 0]])
+    reports = core.reports(poses)
+    assert [r.reachable for r in reports] == [True, False, False]
+    assert reports[1].strut_length_margin_mm == pytest.approx(-400.0) and not reports[2].platform_joints_ok
+    assert list(reports[0].strut_lengths_mm) == [10.0, -20.0, 200.0]
+    pose, _, residual = stage.forward_pose([10.0, -20.0, 200.0], np.zeros(6))
+    np.testing.assert_allclose(pose, poses[0])
+    assert residual == 0.0
+
+    frame = load_pass_planner_config("pass_planner.yaml", document).frame
+    drive = make_drive(stage, step_s=1e-3)
+    limiter = StrutRateLimiter(stage.joint_speed_max_mm_s / 1000.0, stage.joint_acceleration_max_mm_s2 / 1000.0)
+    plant = PlantSimulator(machine=drive, strut_limiter=limiter)
+    start, target = np.array([0.0, 0.0, 0.2]), np.array([0.05, 0.0, 0.25])  # m
+    plant.command_struts(start)
+    plant.command_struts(target)  # a 50 mm jump of two axes: a limited move onto it
+    for _ in range(200):
+        plant.advance(0.005, -1.0)
+    np.testing.assert_allclose(drive.lengths_m, target, atol=1e-5)
+    assert limiter.limited > 0
+    x_mm, h_mm = ToolLocator(stage, frame).centre_mm(drive.lengths_m)
+    assert (x_mm, h_mm) == pytest.approx((150.0, 100.0), abs=0.01)  # the tool point in the bead frame
+    with pytest.raises(ValueError):
+        stage.check_joint_positions_mm([0.0, 0.0, 900.0])
+    reset = measure_reset_time(stage, frame, 100.0, 20.0, 20.0)
+    assert 0.0 < reset.reset_time_s < 20.0 and reset.path_s > 100.0 / 20.0
+
+
+def test_the_plant_node_runs_a_third_machine_kind(ros, stage_file):
+    """The plant node, in this process (where the toy kind is registered), takes the
+    stage's joint commands by its joint names and publishes its joint states."""
+    from rclpy.parameter import Parameter
+    from sensor_msgs.msg import JointState
+
+    from hex_control.nodes.plant import PlantNode
+    from ros_harness import wait_until
+
+    ros.add(PlantNode(context=ros.context, parameter_overrides=[
+        Parameter("machine_file", value=str(stage_file)), Parameter("mode", value="realtime"),
+        Parameter("grinding", value=False)]))
+    states = ros.collect(JointState, "/plant/strut_states", 1000)
+    commands = ros.node("stage_operator").create_publisher(JointState, "/plant/strut_command", 10)
+    wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")
+
+    def arrived():
+        commands.publish(JointState(name=["axis_z", "axis_x", "axis_y"], position=[0.25, 0.05, 0.0]))
+        return states and np.allclose(states[-1].position, [0.05, 0.0, 0.25], atol=1e-5)
+    wait_until(arrived, 15.0, interval_s=0.2, what="the stage at its command")
+    assert list(states[-1].name) == ["axis_x", "axis_y", "axis_z"]

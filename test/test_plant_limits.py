@@ -10,7 +10,7 @@ import pytest
 from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.kinematics import load_machine
-from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter, check_strokes
+from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter
 from hex_control.plant.reset_time import pass_strut_lengths_m
 from hex_control.shaping.shapers import design
 
@@ -18,11 +18,14 @@ PERIOD_S = 0.005
 
 
 def test_a_strut_outside_its_stroke_is_refused_and_named():
-    check_strokes([2.05, 3.35, 2.5, 2.5, 2.5, 2.5], 2050.0, 3350.0)  # the ends are inside
+    nist, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))  # strokes 2050 .. 3350 mm
+    nist.check_joint_positions_mm([2050.0, 3350.0, 2500.0, 2500.0, 2500.0, 2500.0])  # the ends are inside
     with pytest.raises(ValueError, match="strut 2 at 50000.0 mm"):
-        check_strokes([2.5, 2.5, 50.0, 2.5, 2.5, 2.5], 2050.0, 3350.0)
+        nist.check_joint_positions_mm([2500.0, 2500.0, 50000.0, 2500.0, 2500.0, 2500.0])
     with pytest.raises(ValueError, match="strut 0"):
-        check_strokes([math.nan] + [2.5] * 5, 2050.0, 3350.0)
+        nist.check_joint_positions_mm([math.nan] + [2500.0] * 5)
+    with pytest.raises(ValueError, match="need 6 strut lengths"):
+        nist.check_joint_positions_mm([2500.0] * 3)
 
 
 def test_the_force_axis_is_clamped_to_the_tables_travel():

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from hex_control.kinematics.machine_kind import ConstraintCheck
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
 _INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
@@ -52,6 +53,7 @@ class Pru3Geometry:
     slider_acceleration_max_mm_s2: float = math.inf
     feed_speed_max_mm_s: float = math.inf
     feed_acceleration_max_mm_s2: float = math.inf
+    name: str = "pru3"
 
     def __post_init__(self):
         if not (self.rail_radius_mm > 0 and self.platform_radius_mm > 0 and self.rocker_length_mm > 0):
@@ -68,6 +70,48 @@ class Pru3Geometry:
     def joint_names(self) -> list[str]:
         """The sliders, then the feed stage if there is one."""
         return ["strut_0", "strut_1", "strut_2"] + (["feed_x"] if self.feed_stroke_mm is not None else [])
+
+    plant_drive = "pru3_dynamics"
+    maps_workspace = False  # x, y are parasitic: the head has no 6-DOF workspace to map
+
+    def constraint_check(self, poses) -> ConstraintCheck:
+        """Strokes (sliders and feed stage) as set I, the tilt limit as set II; the head has
+        no base-joint or strut-distance constraints."""
+        check = joint_check(self, poses)
+        stroke = np.where(np.isfinite(check.stroke_margin_mm), check.stroke_margin_mm, -np.inf)
+        margins = np.column_stack([stroke, check.tilt_margin_rad, np.full((2, len(stroke)), np.inf).T])
+        satisfied = np.column_stack([stroke >= 0, check.tilt_margin_rad >= 0, np.ones((len(stroke), 2), bool)])
+        satisfied[:, 0] &= check.reachable  # the rockers' geometry too (no real slider position)
+        return ConstraintCheck(check.positions_mm, satisfied, margins)
+
+    def check_joint_positions_mm(self, positions_mm, guess=(200.0, 0.0, 0.0)) -> None:
+        """Raise ValueError unless the sliders and the feed stage are in stroke and place
+        the platform within its tilt limits (the drives' soft limits); ``guess`` (z mm,
+        alpha, beta rad) starts the forward kinematics."""
+        joints = np.asarray(positions_mm, float).reshape(-1)
+        if joints.shape != (len(self.joint_names),) or not np.all(np.isfinite(joints)):
+            raise ValueError(f"need {len(self.joint_names)} finite joint positions (mm)")
+        low, high = self.stroke_mm
+        if not np.all((joints[:3] >= low) & (joints[:3] <= high)):
+            raise ValueError(f"slider positions must be within the stroke {low:g}..{high:g} mm")
+        feed = self.feed_stroke_mm
+        if feed is not None and not feed[0] <= joints[3] <= feed[1]:
+            raise ValueError(f"the feed stage must stay within {feed} mm")
+        q, _ = forward_kinematics(self, joints[:3], guess, tolerance_mm=1e-6)
+        if np.abs(q[1:]).max() > self.tilt_max_rad:
+            raise ValueError(f"slider positions tilt the platform beyond {np.degrees(self.tilt_max_rad):g} deg")
+
+    def forward_pose(self, positions_mm, guess, tolerance_mm: float = 1e-9,
+                     max_iterations: int = 50) -> tuple[np.ndarray, int, float]:
+        """The tool pose from the sliders (and the feed stage): z, alpha, beta solved from
+        ``guess``'s (or 220 mm level if it is all zeros), x and y from the parasitic motion."""
+        positions_mm, guess = np.asarray(positions_mm, float), np.asarray(guess, float)
+        start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
+        q, used = forward_kinematics(self, positions_mm[:3], start, tolerance_mm, max_iterations)
+        solved = inverse_kinematics(self, q)
+        pose = solved.full[0].copy()
+        pose[:3] = tool_positions_mm(solved, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]
+        return pose, used, float(np.max(np.abs(solved.lengths_mm[0] - positions_mm[:3])))
 
     def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
         """(joint positions (n, joints) mm, reachable (n,)) of n tool poses (x, y, z mm,
@@ -105,7 +149,7 @@ class Pru3Geometry:
                    tuple(float(v) for v in data.get("stroke_mm", (0.0, 100.0))),
                    math.radians(float(data.get("tilt_max_deg", 30.0))),
                    None if data.get("feed_stroke_mm") is None else tuple(float(v) for v in data["feed_stroke_mm"]),
-                   **limits)
+                   name=str(data.get("name", "pru3")), **limits)
 
     @classmethod
     def from_yaml(cls, path) -> Pru3Geometry:

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from hex_control.kinematics.machine_kind import ConstraintCheck
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 from hex_control.kinematics.segments import closest_parameters
 
@@ -83,10 +84,37 @@ class StewartGeometry:
         r_home = rotation_matrix(*home[3:])
         object.__setattr__(self, "_nominal_platform", self._nominal_base @ r_home)  # rows: R_home^T s
 
+    plant_drive = "strut_servos"
+    maps_workspace = True
+
     @property
     def joint_names(self) -> list[str]:
         """The struts, in the order of every strut array."""
         return [f"strut_{i}" for i in range(6)]
+
+    def constraint_check(self, poses) -> ConstraintCheck:
+        """Inverse kinematics and constraint sets I-IV (:func:`check_poses`)."""
+        check = check_poses(self, poses)
+        return ConstraintCheck(check.lengths_mm, check.satisfied, check.margins, check.platform_joint_angles_rad,
+                               check.base_joint_angles_rad)
+
+    def check_joint_positions_mm(self, positions_mm) -> None:
+        """Raise ValueError unless every strut length (mm) is within the stroke."""
+        lengths = np.asarray(positions_mm, float).reshape(-1)
+        low, high = self.strut_length_min_mm, self.strut_length_max_mm
+        if lengths.shape != (6,):
+            raise ValueError(f"need 6 strut lengths, got {lengths.shape[0]}")
+        outside = np.flatnonzero(~((lengths >= low) & (lengths <= high)))
+        if outside.size:
+            i = int(outside[0])
+            raise ValueError(f"strut {i} at {lengths[i]:.1f} mm is outside its stroke {low:g}..{high:g} mm")
+
+    def forward_pose(self, positions_mm, guess, tolerance_mm: float = 1e-9,
+                     max_iterations: int = 50) -> tuple[np.ndarray, int, float]:
+        """Forward kinematics (:func:`forward_kinematics`) from ``guess``, or from the home
+        pose if it is all zeros."""
+        guess = np.asarray(guess, float)
+        return forward_kinematics(self, positions_mm, guess if np.any(guess) else None, tolerance_mm, max_iterations)
 
     def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
         """(strut lengths (n, 6) mm, reachable (n,)) of n tool poses (x, y, z mm, roll,

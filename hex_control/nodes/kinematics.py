@@ -36,10 +36,9 @@ from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
 from hex_control.config import config_file
-from hex_control.kinematics import Pru3Geometry, load_machine
-from hex_control.kinematics import pru3 as pru3_kinematics
+from hex_control.kinematics import load_machine
 from hex_control.kinematics.rotation import rpy_from_quaternion
-from hex_control.kinematics.stewart import CONSTRAINT_SETS, ForwardKinematicsError, check_poses, forward_kinematics
+from hex_control.kinematics.stewart import CONSTRAINT_SETS, ForwardKinematicsError
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 from hex_control.nodes import runtime
 from hex_control.nodes.diagnostics import Diagnostics
@@ -71,7 +70,6 @@ class KinematicsCore:
     def __init__(self, machine, document: dict):
         self.machine = machine
         self.document = document
-        self.is_pru3 = isinstance(machine, Pru3Geometry)
         self.joint_names = machine.joint_names
         self.strut_count = len(self.joint_names)
 
@@ -80,31 +78,21 @@ class KinematicsCore:
         return self.machine.joint_positions_mm(rows)
 
     def reports(self, rows: np.ndarray) -> list[ConstraintReport]:
-        if self.is_pru3:
-            check = pru3_kinematics.joint_check(self.machine, rows)
-            reachable, stroke, tilt, lengths = (check.reachable, check.stroke_margin_mm, check.tilt_margin_rad,
-                                                check.positions_mm)
-            out = []
-            for k in range(len(rows)):
-                report = ConstraintReport(reachable=bool(reachable[k]),
-                                          strut_lengths_ok=bool(stroke[k] >= 0), platform_joints_ok=bool(tilt[k] >= 0),
-                                          base_joints_ok=True, strut_distances_ok=True,
-                                          strut_length_margin_mm=float(stroke[k]) if math.isfinite(stroke[k]) else -1e9,
-                                          platform_joint_margin_rad=float(tilt[k]),
-                                          base_joint_margin_rad=math.inf, strut_distance_margin_mm=math.inf)
-                report.strut_lengths_mm = np.nan_to_num(lengths[k], nan=0.0).tolist()
-                out.append(report)
-            return out
-        check = check_poses(self.machine, rows)
-        ok = check.satisfied
-        return [ConstraintReport(
-            reachable=bool(ok[k].all()), strut_lengths_ok=bool(ok[k, 0]), platform_joints_ok=bool(ok[k, 1]),
-            base_joints_ok=bool(ok[k, 2]), strut_distances_ok=bool(ok[k, 3]),
-            strut_length_margin_mm=float(check.margins[k, 0]), platform_joint_margin_rad=float(check.margins[k, 1]),
-            base_joint_margin_rad=float(check.margins[k, 2]), strut_distance_margin_mm=float(check.margins[k, 3]),
-            strut_lengths_mm=check.lengths_mm[k].tolist(),
-            platform_joint_angles_rad=check.platform_joint_angles_rad[k].tolist(),
-            base_joint_angles_rad=check.base_joint_angles_rad[k].tolist()) for k in range(len(rows))]
+        check = self.machine.constraint_check(rows)
+        ok, margins, reachable = check.satisfied, check.margins, check.reachable
+        reports = []
+        for k in range(len(rows)):
+            report = ConstraintReport(
+                reachable=bool(reachable[k]), strut_lengths_ok=bool(ok[k, 0]), platform_joints_ok=bool(ok[k, 1]),
+                base_joints_ok=bool(ok[k, 2]), strut_distances_ok=bool(ok[k, 3]),
+                strut_length_margin_mm=float(margins[k, 0]), platform_joint_margin_rad=float(margins[k, 1]),
+                base_joint_margin_rad=float(margins[k, 2]), strut_distance_margin_mm=float(margins[k, 3]),
+                strut_lengths_mm=np.nan_to_num(check.positions_mm[k], nan=0.0).tolist())
+            if check.platform_joint_angles_rad is not None:
+                report.platform_joint_angles_rad = check.platform_joint_angles_rad[k].tolist()
+                report.base_joint_angles_rad = check.base_joint_angles_rad[k].tolist()
+            reports.append(report)
+        return reports
 
     def poses_or_error(self, poses) -> tuple[np.ndarray | None, str]:
         if len(poses) > MAX_POSES:
@@ -115,7 +103,7 @@ class KinematicsCore:
         return rows, ""
 
     def workspace(self, request, response, logger):
-        if self.is_pru3:
+        if not self.machine.maps_workspace:
             response.error_code.val = Code.UNSUPPORTED_MACHINE
             return response
         orientation = np.array([request.roll_rad, request.pitch_rad, request.yaw_rad], float)
@@ -226,16 +214,7 @@ class KinematicsNode(Node):
         tolerance = request.tolerance_mm or 1e-9
         iterations = request.max_iterations or 50
         try:
-            if self.core.is_pru3:
-                start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
-                q, used = pru3_kinematics.forward_kinematics(self.core.machine, lengths[:3], start, tolerance,
-                                                             iterations)
-                solved = pru3_kinematics.inverse_kinematics(self.core.machine, q)
-                pose, residual = solved.full[0].copy(), float(np.max(np.abs(solved.lengths_mm[0] - lengths[:3])))
-                pose[:3] = pru3_kinematics.tool_positions_mm(solved, lengths[3:] if len(lengths) > 3 else 0.0)[0]
-            else:
-                start = guess if np.any(guess) else None
-                pose, used, residual = forward_kinematics(self.core.machine, lengths, start, tolerance, iterations)
+            pose, used, residual = self.core.machine.forward_pose(lengths, guess, tolerance, iterations)
         except ForwardKinematicsError as exc:
             response.error_code.val = Code.SINGULAR if exc.reason == "singular" else Code.NO_CONVERGENCE
             return response

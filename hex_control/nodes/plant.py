@@ -107,8 +107,7 @@ from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.contour import Contour, weld_bead
 from hex_control.grinding.part_quality import part_quality
 from hex_control.grinding.variation import ProcessVariation
-from hex_control.kinematics import Pru3Geometry, load_machine
-from hex_control.kinematics.pru3_dynamics import Pru3Inertia
+from hex_control.kinematics import load_machine
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.interfaces import (
     LATCHED,
@@ -126,14 +125,15 @@ from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
+from hex_control.plant.drives import make_drive
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
-from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter, check_strokes
+from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter
 from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pacing import RealTimePacer
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
-from hex_control.plant.pru3_machine import DRIVES, Pru3Machine
+from hex_control.plant.pru3_machine import DRIVES
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -235,21 +235,17 @@ class PlantNode(Node):
         self.mode = p("mode")
         self.period_s = p("control_period_s")
         machine_geometry, machine_document = load_machine(p("machine_file"))
-        is_pru3 = isinstance(machine_geometry, Pru3Geometry)
         # the kinematics node's names for the same machine, unless told otherwise
         names = machine_geometry.joint_names
         self.strut_names = [n for n in p("strut_names") if n] or names
         if len(self.strut_names) != len(names):
             raise ValueError(f"strut_names: the machine has {len(names)} joints")
         table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
-        struts = 3 if is_pru3 else 6  # those that drive the structural mode
-        machine = MachineParameters(struts=struts, participation=1.0 / struts, **{n: p(n) for n in MACHINE_PARAMETERS})
         steps = round(self.period_s / p("internal_step_s"))
         if steps < 1 or abs(steps * p("internal_step_s") - self.period_s) > 1e-9:
             raise ValueError("control_period_s must be a whole number of internal_step_s")
-        if is_pru3:
-            machine = Pru3Machine(machine_geometry, Pru3Inertia(), machine, p("internal_step_s"), p("pru3_drive"),
-                                  refresh_s=self.period_s)
+        machine = make_drive(machine_geometry, MachineParameters(**{n: p(n) for n in MACHINE_PARAMETERS}),
+                             p("internal_step_s"), self.period_s, p("pru3_drive"))
         cell, locator, self.monitor = None, None, None
         if p("grinding"):
             cell, locator = self._cell(machine_geometry, machine_document)
@@ -262,11 +258,7 @@ class PlantNode(Node):
                                   limiter)
         self.axis_limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"),
                                            table.contact_mm)
-        if is_pru3:
-            self.check_struts = machine.check_command
-        else:
-            low, high = machine_geometry.strut_length_min_mm, machine_geometry.strut_length_max_mm
-            self.check_struts = lambda lengths: check_strokes(lengths, low, high)
+        self.check_struts = lambda lengths_m: machine_geometry.check_joint_positions_mm(np.asarray(lengths_m) * 1000.0)
         self.command_mm = p("table_start_mm")
         self.last_command_s = 0.0  # sim time of the latest force command
         self.free_running = False  # lock-step whose controller stopped answering

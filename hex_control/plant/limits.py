@@ -3,10 +3,10 @@ table's travel, as ros2_control enforces joint limits below every controller, an
 amplifier's overload trip (issue 21: a 50 m strut command used to drive every strut to
 50 m; 1000 mm on the force axis gave 7.9e4 N against F_max 60 N).
 
-- Strokes: a Stewart machine's strut lengths within the machine file's
-  ``strut_length_mm`` (the 3-PRU head checks its sliders, feed stage and tilt in
-  :meth:`hex_control.plant.pru3_machine.Pru3Machine.check_command`). A command outside is
-  refused, not clamped: clamping one strut of six moves the platform somewhere nobody asked.
+- Strokes: every joint command within the machine file's limits, as the machine checks
+  them (``check_joint_positions_mm`` of its geometry: a hexapod's strut strokes; the 3-PRU
+  head's sliders, feed stage and tilt). A command outside is refused, not clamped:
+  clamping one strut of six moves the platform somewhere nobody asked.
 - Speed and acceleration: every joint's command (a Stewart machine's struts; the 3-PRU
   head's sliders and feed stage), one control period at a time, within the machine file's
   limits (``joint_speed_max_mm_s`` and ``joint_acceleration_max_mm_s2`` of the geometry;
@@ -28,15 +28,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-
-def check_strokes(lengths_m, low_mm: float, high_mm: float) -> None:
-    """Raise ValueError unless every strut length (m) is within [low_mm, high_mm]."""
-    lengths_mm = np.asarray(lengths_m, float) * 1000.0
-    outside = np.flatnonzero(~((lengths_mm >= low_mm) & (lengths_mm <= high_mm)))
-    if outside.size:
-        i = int(outside[0])
-        raise ValueError(f"strut {i} at {lengths_mm[i]:.1f} mm is outside its stroke {low_mm:g}..{high_mm:g} mm")
 
 
 @dataclass

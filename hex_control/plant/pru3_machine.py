@@ -95,19 +95,9 @@ class Pru3Machine:
 
     def check_command(self, lengths_m) -> None:
         """Raise ValueError unless these joint positions (m) are in stroke and place the
-        platform within its tilt limits (the drives' soft limits)."""
-        joints_mm = self._joints(lengths_m) * 1000.0
-        lengths_mm = joints_mm[:3]
-        low, high = self.geometry.stroke_mm
-        if not np.all((lengths_mm >= low) & (lengths_mm <= high)):
-            raise ValueError(f"slider positions must be within the stroke {low:g}..{high:g} mm")
-        feed = self.geometry.feed_stroke_mm
-        if self.feed is not None and not feed[0] <= joints_mm[3] <= feed[1]:
-            raise ValueError(f"the feed stage must stay within {self.geometry.feed_stroke_mm} mm")
-        q, _ = forward_kinematics(self.geometry, lengths_mm, self.pose_q, tolerance_mm=1e-6)
-        if np.abs(q[1:]).max() > self.geometry.tilt_max_rad:
-            limit_deg = np.degrees(self.geometry.tilt_max_rad)
-            raise ValueError(f"slider positions tilt the platform beyond {limit_deg:g} deg")
+        platform within its tilt limits (:meth:`Pru3Geometry.check_joint_positions_mm`,
+        solved from the pose now)."""
+        self.geometry.check_joint_positions_mm(self._joints(lengths_m) * 1000.0, self.pose_q)
 
     @property
     def lengths_m(self) -> np.ndarray:

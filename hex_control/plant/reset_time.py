@@ -13,14 +13,14 @@ Units: mm, s (strut lengths m inside the machine model).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from hex_control.grinding.tool_path import BeadFrame, PathTiming, pass_tool_path
 from hex_control.kinematics import Pru3Geometry, StewartGeometry
-from hex_control.plant.machine import Machine, MachineParameters
-from hex_control.plant.pru3_machine import Pru3Machine
+from hex_control.plant.drives import make_drive
+from hex_control.plant.machine import MachineParameters
 from hex_control.shaping.filter import ShaperFilter
 from hex_control.shaping.shapers import Shaper
 
@@ -67,11 +67,7 @@ def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame
         raise ValueError("need a positive settle band")
     lengths = pass_strut_lengths_m(machine, frame, length_mm, feed_mm_s, height_mm, timing, shaper)
     end = lengths[-1]
-    if isinstance(machine, Pru3Geometry):  # the plant's model of the head: its dynamics
-        model = Pru3Machine(machine, parameters=replace(parameters, struts=3, participation=1 / 3), step_s=step_s,
-                            refresh_s=timing.sample_period_s)
-    else:
-        model = Machine(replace(parameters, struts=lengths.shape[1], participation=1.0 / lengths.shape[1]), step_s)
+    model = make_drive(machine, parameters, step_s, timing.sample_period_s)  # the plant's own model of it
     model.reset(lengths[0])
     per_sample = round(timing.sample_period_s / step_s)
     for row in lengths:
