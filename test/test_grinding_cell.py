@@ -38,7 +38,7 @@ def grind_plan(cell, plan, force_scale=1.0):
         cell.advance(PERIOD, (x[0], h[0] + 5.0 * (1 - k / 39)), table)
     follow = 1 - math.exp(-PERIOD / MODEL.approach_time_constant_s)
     for k in range(t.size):
-        table += follow * (cell.stepper.surface_mm() + f[k] / KX - table)
+        table += follow * (cell.surface_mm() + f[k] / KX - table)
         cell.advance(PERIOD, (x[k], h[k]), table)
 
 

@@ -223,32 +223,45 @@ HISTORY = ("time_s", "centre_x_mm", "tip_x_mm", "tip_z_mm", "height_mm", "angle_
            "force_n", "power_w", "removal_rate_mm3_s", "patch_area_mm2", "patches", "integrand")
 
 
+class FeedMotion:
+    """The pass planner's motion (ch. 6): the disk centre moves along the bead at a constant
+    ``feed_mm_s`` from ``start_centre_x_mm``; the drive (height or relaxed-angle control)
+    sets its height and the spring's relaxed angle."""
+
+    def __init__(self, drive, feed_mm_s: float, start_centre_x_mm: float):
+        self.drive, self.feed_mm_s, self.start_centre_x_mm = drive, feed_mm_s, start_centre_x_mm
+
+    def pose(self, model: DiskModel, time_s: float, angle_rad: float, integral: float):
+        """(DriveState, DiskPose) at ``time_s`` with the disk at ``angle_rad``."""
+        centre = self.start_centre_x_mm + self.feed_mm_s * time_s
+        s = self.drive.state(centre, self.feed_mm_s, angle_rad, integral)
+        return s, DiskPose(centre, s.height_mm, angle_rad, model.radius_mm)
+
+
 class PassStepper:
     """One pass being ground, one RK4 step at a time: the disk state (angle, the drive's
-    integral state), the time, and the contour as cut so far. ``simulate_pass`` runs it to
-    the end of the bead; a plant advances it by its own periods, changing the drive's
-    inputs between steps."""
+    integral state), the time, and the contour as cut so far. ``motion`` places the disk
+    and sets the spring (``pose(model, t, angle, integral)`` -> (DriveState, DiskPose), and
+    its ``feed_mm_s`` along the bead): :class:`FeedMotion` for the pass planner's passes, the
+    machine itself in the plant's grinding cell, which changes it and ``dt`` between steps.
+    ``simulate_pass`` runs a :class:`FeedMotion` pass to the end of the bead."""
 
-    def __init__(self, contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float,
-                 step_mm: float, truncate_in_stages: bool = False, contact_search=contact_patch):
-        if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
-            raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
-        self.model, self.drive, self.feed_mm_s, self.step_mm = model, drive, feed_mm_s, step_mm
+    def __init__(self, contour: Contour, model: DiskModel, motion, dt_s: float, initial_angle_rad: float,
+                 step_mm: float, swing_floor_s: float | None = None, truncate_in_stages: bool = False,
+                 contact_search=contact_patch):
+        self.model, self.motion, self.dt, self.step_mm = model, motion, dt_s, step_mm
         self.truncate_in_stages, self.contact_search = truncate_in_stages, contact_search
         self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
-        self.dt = step_mm / feed_mm_s
-        self.free_swing_s = max(model.free_swing_s, self.dt)
-        self.time_s, self.angle_rad, self.integral = 0.0, drive.initial_angle_rad, 0.0
-        self.start_centre_x_mm = start_tip_x_mm + model.radius_mm * math.cos(self.angle_rad)
+        # out of contact the disk swings back no faster than the spring allows, nor within a step
+        self.free_swing_s = max(model.free_swing_s, dt_s if swing_floor_s is None else swing_floor_s)
+        self.time_s, self.angle_rad, self.integral = 0.0, initial_angle_rad, 0.0
 
     @property
     def contour(self) -> Contour:
         return Contour(self.x, self.z, self.parent)
 
     def _pose(self, time_s, angle_rad, integral):
-        centre = self.start_centre_x_mm + self.feed_mm_s * time_s
-        s = self.drive.state(centre, self.feed_mm_s, angle_rad, integral)
-        return s, DiskPose(centre, s.height_mm, angle_rad, self.model.radius_mm)
+        return self.motion.pose(self.model, time_s, angle_rad, integral)
 
     def _rates(self, time_s, angle_rad, integral):
         s, pose = self._pose(time_s, angle_rad, integral)
@@ -259,7 +272,8 @@ class PassStepper:
         else:
             q = self.model.removal_rate_mm3_s(s.force_n)
             cos = math.cos(angle_rad)
-            rate = (q / (patch.length_mm * self.model.process.bead_width_mm) - self.feed_mm_s * math.sin(angle_rad)
+            feed = self.motion.feed_mm_s
+            rate = (q / (patch.length_mm * self.model.process.bead_width_mm) - feed * math.sin(angle_rad)
                     + s.height_rate_mm_s * cos) / (patch.centroid_mm - s.height_rate_per_angle_rate_mm * cos)  # 6.15
             rate = min(rate, free_rate)
         if self.truncate_in_stages:
@@ -302,7 +316,11 @@ def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, s
     swaps in the naive whole-contour scan)."""
     start = contour.x_mm[0] if start_tip_x_mm is None else start_tip_x_mm
     end = contour.x_mm[-1] if end_tip_x_mm is None else end_tip_x_mm
-    stepper = PassStepper(contour, model, drive, feed_mm_s, start, step_mm, truncate_in_stages, contact_search)
+    if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
+        raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
+    motion = FeedMotion(drive, feed_mm_s, start + model.radius_mm * math.cos(drive.initial_angle_rad))
+    stepper = PassStepper(contour, model, motion, step_mm / feed_mm_s, drive.initial_angle_rad, step_mm,
+                          truncate_in_stages=truncate_in_stages, contact_search=contact_search)
     rows = {name: [] for name in HISTORY}
     multiple = 0
     while True:

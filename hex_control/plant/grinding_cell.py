@@ -34,62 +34,60 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.grinding.contact import DiskPose, contact_patch
+from hex_control.grinding.contact import DiskPose
 from hex_control.grinding.contour import Contour
 from hex_control.grinding.dynamic import DiskModel, DriveState, PassStepper
 from hex_control.grinding.variation import ProcessVariation
 
 
-class _MachineDrivenStepper(PassStepper):
-    """PassStepper whose disk centre is set by the machine, one segment at a time, and
-    whose spring is wound by the force table (no drive object: ``_pose`` is the drive)."""
+class MachineMotion:
+    """The disk as the plant moves it: its centre where the machine holds it, one straight
+    segment (x, H in the bead frame) at a time, and its spring wound by the force table,
+    whose position sets the relaxed angle (eq. 7.1: the table sees the work at
+    X_c + R(theta - theta_0))."""
 
-    def __init__(self, contour: Contour, model: DiskModel, table_contact_mm: float, control_period_s: float):
-        # the base's state, set here: the base constructor wants a drive and a fixed feed
-        self.model, self.truncate_in_stages, self.contact_search = model, False, contact_patch
-        self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
-        self.free_swing_s = max(model.free_swing_s, control_period_s)
-        self.table_contact_mm = table_contact_mm
-        self.time_s, self.angle_rad, self.integral = 0.0, model.relaxed_angle_rad, 0.0
-        self.segment = (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
-        self.table_mm = table_contact_mm
-        self.dt, self.feed_mm_s, self.step_mm = 1.0, 0.0, math.inf
+    def __init__(self, table_contact_mm: float):
+        self.table_contact_mm = self.table_mm = table_contact_mm
+        self.segment = (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)  # start s, duration s, x0, H0, x1, H1 (mm)
+        self.feed_mm_s = 0.0
 
-    def relaxed_angle_rad(self, table_mm: float) -> float:
-        return self.model.relaxed_angle_rad + (table_mm - self.table_contact_mm) / self.model.radius_mm
+    def relaxed_angle_rad(self, model: DiskModel, table_mm: float) -> float:
+        return model.relaxed_angle_rad + (table_mm - self.table_contact_mm) / model.radius_mm
 
-    def surface_mm(self) -> float:
-        """Table position at which the spring is relaxed at the disk's present angle."""
-        return self.table_contact_mm + self.model.radius_mm * (self.angle_rad - self.model.relaxed_angle_rad)
+    def surface_mm(self, model: DiskModel, angle_rad: float) -> float:
+        """Table position at which the spring is relaxed at the disk's angle ``angle_rad``."""
+        return self.table_contact_mm + model.radius_mm * (angle_rad - model.relaxed_angle_rad)
 
-    def _pose(self, time_s, angle_rad, integral):
+    def pose(self, model: DiskModel, time_s: float, angle_rad: float, integral: float):
         start, duration, x0, h0, x1, h1 = self.segment
         f = (time_s - start) / duration
         centre, height = x0 + f * (x1 - x0), h0 + f * (h1 - h0)
-        relaxed = self.relaxed_angle_rad(self.table_mm)
-        force = self.model.force_n(angle_rad, relaxed)
+        relaxed = self.relaxed_angle_rad(model, self.table_mm)
+        force = model.force_n(angle_rad, relaxed)
         state = DriveState(height, (h1 - h0) / duration, 0.0, force, relaxed, 0.0, relaxed - angle_rad)
-        return state, DiskPose(centre, height, angle_rad, self.model.radius_mm)
+        return state, DiskPose(centre, height, angle_rad, model.radius_mm)
 
-    def advance(self, duration_s: float, start_mm, end_mm, table_mm: float, step_mm: float):
-        """Move the centre from ``start_mm`` to ``end_mm`` ((x, H), bead frame) in
-        ``duration_s`` with the table at ``table_mm``; returns the (force N, power W, in
-        contact) samples at the sub-step starts."""
-        (x0, h0), (x1, h1) = start_mm, end_mm
-        substeps = max(1, math.ceil(abs(x1 - x0) / step_mm))
-        self.table_mm, self.dt = table_mm, duration_s / substeps
-        self.feed_mm_s = (x1 - x0) / duration_s
-        samples = []
-        for k in range(substeps):
-            f0, f1 = k / substeps, (k + 1) / substeps
-            self.segment = (self.time_s, self.dt, x0 + f0 * (x1 - x0), h0 + f0 * (h1 - h0),
-                            x0 + f1 * (x1 - x0), h0 + f1 * (h1 - h0))
-            now = self.evaluate()
-            _, state, _, patch = now
-            force = max(state.force_n, 0.0) if patch.length_mm > 0 else 0.0
-            samples.append((force, self.model.power_w(force), patch.length_mm > 0))
-            self.step(now)
-        return samples
+
+def advance_by_machine(stepper: PassStepper, motion: MachineMotion, duration_s: float, start_mm, end_mm,
+                       table_mm: float, step_mm: float):
+    """Move the centre from ``start_mm`` to ``end_mm`` ((x, H), bead frame) in ``duration_s``
+    with the table at ``table_mm``, in sub-steps of at most ``step_mm`` along the bead;
+    returns the (force N, power W, in contact) samples at the sub-step starts."""
+    (x0, h0), (x1, h1) = start_mm, end_mm
+    substeps = max(1, math.ceil(abs(x1 - x0) / step_mm))
+    motion.table_mm, stepper.dt = table_mm, duration_s / substeps
+    motion.feed_mm_s = (x1 - x0) / duration_s
+    samples = []
+    for k in range(substeps):
+        f0, f1 = k / substeps, (k + 1) / substeps
+        motion.segment = (stepper.time_s, stepper.dt, x0 + f0 * (x1 - x0), h0 + f0 * (h1 - h0),
+                          x0 + f1 * (x1 - x0), h0 + f1 * (h1 - h0))
+        now = stepper.evaluate()
+        _, state, _, patch = now
+        force = max(state.force_n, 0.0) if patch.length_mm > 0 else 0.0
+        samples.append((force, stepper.model.power_w(force), patch.length_mm > 0))
+        stepper.step(now)
+    return samples
 
 
 @dataclass(frozen=True)
@@ -127,7 +125,9 @@ class GrindingCell:
         self.table_contact_mm, self.step_mm, self.control_period_s = table_contact_mm, step_mm, control_period_s
         self.burn_coefficient, self.burn_window_s = burn_coefficient, burn_window_s
         self.model = model
-        self.stepper = _MachineDrivenStepper(contour, model, table_contact_mm, control_period_s)
+        self.motion = MachineMotion(table_contact_mm)
+        self.stepper = PassStepper(contour, model, self.motion, 1.0, model.relaxed_angle_rad, step_mm,
+                                   swing_floor_s=control_period_s)
         self.centre_mm = None  # (x, H) at the end of the last advance
         self.current = None  # the pass being measured: dict of accumulators
         self.passes_started = 0
@@ -159,11 +159,15 @@ class GrindingCell:
             raise ValueError("need a finite centre, table position and a positive duration")
         start = self.centre_mm or centre
         self.centre_mm = centre
-        samples = self.stepper.advance(duration_s, start, centre, table_mm, self.step_mm)
+        samples = advance_by_machine(self.stepper, self.motion, duration_s, start, centre, table_mm, self.step_mm)
         if self.current is not None:
             self._accumulate(samples, duration_s / len(samples), abs(centre[0] - start[0]) / duration_s)
         _, _, _, patch = self.stepper.evaluate()
-        return self.stepper.surface_mm() if patch.length_mm > 0 else math.inf
+        return self.surface_mm() if patch.length_mm > 0 else math.inf
+
+    def surface_mm(self) -> float:
+        """Table position at which the spring is relaxed at the disk's present angle."""
+        return self.motion.surface_mm(self.model, self.stepper.angle_rad)
 
     def _accumulate(self, samples, dt: float, feed_mm_s: float) -> None:
         c, k2 = self.current, self.model.process.wasted_power_w
