@@ -1,5 +1,10 @@
 """The planners' YAML: the sequence planner's process, charges, grid and cut-depth model;
-the pass planner's process, spring, controller, compliance and bead frame."""
+the pass planner's process, spring, controller, compliance and bead frame.
+
+The physical values of the cell -- the process and the disk -- are in one file,
+``config/cell.yaml``, which a planner file names with ``cell:``; its own ``process`` and
+``disk`` entries (the job's bead, the planning choices, a goal's overrides) go on top.
+"""
 
 from __future__ import annotations
 
@@ -18,10 +23,43 @@ from hex_control.grinding.stochastic import CutDepthModel
 from hex_control.grinding.tool_path import BeadFrame, PathTiming
 
 
+def load_cell(source="cell.yaml") -> dict:
+    """The cell's physical values (``process``, ``disk``) from a path or a name under config/."""
+    path = Path(source)
+    if not path.is_file():
+        path = config_file(str(source))
+    data = yaml.safe_load(path.read_text()) or {}
+    unknown = set(data) - {"process", "disk"}
+    if unknown:
+        raise ValueError(f"unknown cell sections {sorted(unknown)} in {path}")
+    return data
+
+
+def cell_value(key: str, source="cell.yaml") -> float:
+    """One of the cell's values by its dotted name, e.g. ``process.specific_energy_j_mm3``."""
+    section, _, name = key.partition(".")
+    try:
+        return float(load_cell(source)[section][name])
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"the cell ({source}) has no number {key!r}") from None
+
+
+def with_cell(data: dict, sections=("process",)) -> dict:
+    """``data`` with the cell file it names (``cell``) under its ``sections``."""
+    if not data.get("cell"):
+        return data
+    cell = load_cell(data["cell"])
+    merged = {k: v for k, v in data.items() if k != "cell"}
+    for section in sections:
+        merged[section] = {**(cell.get(section) or {}), **(data.get(section) or {})}
+    return merged
+
+
 def parse_planner_config(data: dict) -> tuple[GrindingProcess, Charges, PlannerGrid, CutDepthModel]:
-    unknown = set(data) - {"process", "charges", "grid", "cut_model"}
+    unknown = set(data) - {"cell", "process", "charges", "grid", "cut_model"}
     if unknown:
         raise ValueError(f"unknown planner sections {sorted(unknown)}")
+    data = with_cell(data)
     return (GrindingProcess.from_dict(data.get("process", {})), charges_from_dict(data.get("charges", {})),
             PlannerGrid(**data.get("grid", {})), CutDepthModel(**data.get("cut_model", {})))
 
@@ -49,10 +87,11 @@ class PassPlannerConfig:
 
 
 def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
-    known = {"process", "disk", "planner", "control", "gains", "step_mm", "compliance", "bead_frame", "path"}
+    known = {"cell", "process", "disk", "planner", "control", "gains", "step_mm", "compliance", "bead_frame", "path"}
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"unknown pass planner sections {sorted(unknown)}")
+    data = with_cell(data, ("process", "disk"))
     disk = dict(data.get("disk") or {})
     if "relaxed_angle_deg" in disk:
         disk["relaxed_angle_rad"] = math.radians(disk.pop("relaxed_angle_deg"))

@@ -98,13 +98,13 @@ class Charges:
 
 
 def charges_from_dict(data: dict) -> Charges:
-    deadline = data.get("deadline", {})
-    return Charges(
-        DeadlineCharge(SideCharge(**deadline.get("over", {"kind": "constant", "coefficient": 5.0})),
-                       SideCharge(**deadline.get("under", {"kind": "linear", "coefficient": 2.0})),
-                       float(deadline.get("tolerance_mm", 0.02))),
-        LatenessCharge(SideCharge(**data.get("lateness", {"kind": "linear", "coefficient": 1.0}))),
-        InPathCharges(**data.get("in_path", {})))
+    """The charges of a planner YAML's ``charges`` section; what it leaves out keeps the
+    defaults of :mod:`hex_control.grinding.penalties`."""
+    deadline = {name: SideCharge(**value) if name in ("over", "under") else float(value)
+                for name, value in data.get("deadline", {}).items()}
+    lateness = data.get("lateness")
+    return Charges(DeadlineCharge(**deadline), LatenessCharge(SideCharge(**lateness)) if lateness else LatenessCharge(),
+                   InPathCharges(**data.get("in_path", {})))
 
 
 @dataclass(frozen=True)

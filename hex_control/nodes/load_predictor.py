@@ -27,9 +27,11 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
 from hex_control.estimation.drift import DriftingLoadPredictor
+from hex_control.grinding.config import cell_value
 from hex_control.nodes.diagnostics import Diagnostics
 from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.messages import check_numeric_field, get_field, message_class
@@ -56,6 +58,8 @@ PARAMETERS = {
     "initial_variance": Spec(-1.0, "P(0) = sigma(0) (load unit^2); < 0 = stationary W/(1-a^2)", -1e12, 1e12,
                              read_only=False),
     "mean": Spec(0.0, "mean load L_bar subtracted before filtering (load unit)", -1e12, 1e12, read_only=False),
+    "mean_from_cell": Spec("", "start with the mean the cell gives (config/cell.yaml), e.g. "
+                           "process.specific_energy_j_mm3; '' = the mean parameter"),
     "identify_window": Spec(0, "identify a, W, V, mean online over the last N samples; 0 = off", 0, 1_000_000),
     "identify_every": Spec(0, "samples between identifications; 0 = window/4", 0, 1_000_000),
     "drift_rate_variance": Spec(0.0, "variance of the drift's change per sample (load unit^2 per sample^2); "
@@ -76,6 +80,8 @@ class LoadPredictorNode(Node):
         super().__init__("load_predictor", **kwargs)
         declare_parameters(self, PARAMETERS)
         p = self.get_parameter
+        if p("mean_from_cell").value:
+            self.set_parameters([Parameter("mean", value=cell_value(p("mean_from_cell").value))])
         self._input_field = p("input_field").value
         input_class = message_class(p("input_type").value)
         check_numeric_field(input_class, self._input_field)

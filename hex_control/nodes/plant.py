@@ -156,9 +156,6 @@ TABLE_PARAMETERS = {
     "sensor_cutoff_hz": Spec(_TABLE.sensor_cutoff_hz, "corner of the force sensor's 2-pole low-pass (Hz)",
                              0.1, 10_000.0),
     "contact_mm": Spec(_TABLE.contact_mm, "table position at which the disk touches the work", -50.0, 50.0),
-    "rotational_stiffness_n_mm_rad": Spec(_TABLE.rotational_stiffness_n_mm_rad, "K_theta of the disk's mount "
-                                          "(eq. 7.1b: K_x = K_theta / R^2)", 1.0, 1e12),
-    "disk_radius_mm": Spec(_TABLE.disk_radius_mm, "disk radius R", 1.0, 1000.0),
     "position_loop": Spec(_TABLE.position_loop, "table position loop: eq. 7.3 or eq. 7.2 (App. B)",
                           choices=("two_pole", "third_order")),
 }
@@ -240,7 +237,11 @@ class PlantNode(Node):
         self.strut_names = [n for n in p("strut_names") if n] or names
         if len(self.strut_names) != len(names):
             raise ValueError(f"strut_names: the machine has {len(names)} joints")
-        table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
+        # the disk and its mount are the cell's (config/cell.yaml, through the pass planner's file)
+        config = load_pass_planner_config(p("pass_planner_config"), machine_document)
+        table = ForceTableParameters(rotational_stiffness_n_mm_rad=config.model.spring_n_mm_rad,
+                                     disk_radius_mm=config.model.process.disk_radius_mm,
+                                     **{n: p(n) for n in TABLE_PARAMETERS})
         steps = round(self.period_s / p("internal_step_s"))
         if steps < 1 or abs(steps * p("internal_step_s") - self.period_s) > 1e-9:
             raise ValueError("control_period_s must be a whole number of internal_step_s")
@@ -248,7 +249,7 @@ class PlantNode(Node):
                              p("internal_step_s"), self.period_s, p("pru3_drive"))
         cell, locator, self.monitor = None, None, None
         if p("grinding"):
-            cell, locator = self._cell(machine_geometry, machine_document)
+            cell, locator = self._cell(machine_geometry, config, table.contact_mm)
             self.monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                                        command_timeout_s=p("command_timeout_s"))
         speed, acceleration = machine_geometry.joint_speed_max_mm_s, machine_geometry.joint_acceleration_max_mm_s2
@@ -310,17 +311,15 @@ class PlantNode(Node):
         wall_timer(self, 1.0, self._report)
         self._publish_state()
 
-    def _cell(self, machine_geometry, machine_document: dict) -> tuple[GrindingCell, ToolLocator]:
+    def _cell(self, machine_geometry, config, contact_mm: float) -> tuple[GrindingCell, ToolLocator]:
         p = lambda name: self.get_parameter(name).value  # noqa: E731
-        config = load_pass_planner_config(p("pass_planner_config"), machine_document)
         if p("bead_file"):
             bead = Contour.from_csv(p("bead_file"))
         else:
             bead = weld_bead(p("bead_length_mm"), p("bead_height_mm"), p("bead_end_ramp_mm"),
                              ripple_mm=p("bead_ripple_mm"), seed=p("bead_seed"))
         variation = ProcessVariation(**{n: p(n) for n in VARIATION_PARAMETERS})
-        table = ForceTableParameters(**{n: p(n) for n in TABLE_PARAMETERS})
-        cell = GrindingCell(bead, config.model, variation, p("seed"), table.contact_mm, config.step_mm,
+        cell = GrindingCell(bead, config.model, variation, p("seed"), contact_mm, config.step_mm,
                             self.period_s, p("burn_coefficient") or None)
         return cell, ToolLocator(machine_geometry, config.frame)
 
