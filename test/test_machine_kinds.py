@@ -183,3 +183,21 @@ def test_the_plant_node_runs_a_third_machine_kind(ros, stage_file):
         return states and np.allclose(states[-1].position, [0.05, 0.0, 0.25], atol=1e-5)
     wait_until(arrived, 15.0, interval_s=0.2, what="the stage at its command")
     assert list(states[-1].name) == ["axis_x", "axis_y", "axis_z"]
+
+
+@pytest.mark.parametrize("machine_file", ["pru3", "pru3_feed"])
+def test_the_heads_constraint_sets_agree_with_its_inverse_kinematics(machine_file):
+    """Reachable exactly where the head's own inverse kinematics says, over a sweep of
+    heights and tilts reaching past every limit."""
+    from hex_control.kinematics.pru3 import joint_check
+
+    machine, _ = load_machine(config_file(f"machines/{machine_file}.yaml"))
+    z, tilt = np.meshgrid(np.linspace(100.0, 320.0, 23), np.linspace(-0.7, 0.7, 15))
+    poses = np.column_stack([np.full(z.size, 50.0), np.zeros(z.size), z.ravel(), tilt.ravel(), -0.5 * tilt.ravel(),
+                             np.zeros(z.size)])
+    check = machine.constraint_check(poses)
+    reachable = joint_check(machine, poses).reachable
+    assert 0 < reachable.sum() < len(poses)
+    np.testing.assert_array_equal(check.reachable, reachable)
+    too_tilted = np.abs(poses[:, 3]) > machine.tilt_max_rad  # refused by the tilt set, not the strokes'
+    assert too_tilted.any() and not check.satisfied[too_tilted, 1].any()

@@ -78,10 +78,11 @@ class Pru3Geometry:
         """Strokes (sliders and feed stage) as set I, the tilt limit as set II; the head has
         no base-joint or strut-distance constraints."""
         check = joint_check(self, poses)
+        # a pose the rockers cannot reach has no slider position: outside the stroke
         stroke = np.where(np.isfinite(check.stroke_margin_mm), check.stroke_margin_mm, -np.inf)
-        margins = np.column_stack([stroke, check.tilt_margin_rad, np.full((2, len(stroke)), np.inf).T])
-        satisfied = np.column_stack([stroke >= 0, check.tilt_margin_rad >= 0, np.ones((len(stroke), 2), bool)])
-        satisfied[:, 0] &= check.reachable  # the rockers' geometry too (no real slider position)
+        n = len(stroke)
+        margins = np.column_stack([stroke, check.tilt_margin_rad, np.full(n, np.inf), np.full(n, np.inf)])
+        satisfied = np.column_stack([stroke >= 0, check.tilt_margin_rad >= 0, np.ones((n, 2), bool)])
         return ConstraintCheck(check.positions_mm, satisfied, margins)
 
     def check_joint_positions_mm(self, positions_mm, guess=(200.0, 0.0, 0.0)) -> None:
