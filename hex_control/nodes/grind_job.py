@@ -41,6 +41,10 @@ class JobObserver(Node):
         self.client = ActionClient(self, GrindBead, "/sequence_planner/grind_bead")
         self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
         self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
+        # the planner's feedback carries every command too, kept for late joiners: a command
+        # topic holds only its last, which a restarted planner may have replaced before it matched
+        self.create_subscription(GrindBead.Feedback, "/sequence_planner/job_feedback",
+                                 lambda feedback: self._on_command(feedback.command), RESULTS)
         self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
         self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
         self.create_subscription(PlantTelemetry, "/plant/telemetry", self._on_telemetry, TELEMETRY)
@@ -70,7 +74,8 @@ class JobObserver(Node):
 
     def _on_command(self, msg: PassCommand) -> None:
         if self._mine(msg.job_id):
-            self.record.events.append(("command", int(msg.pass_index)))
+            if int(msg.pass_index) not in self.record.commands:
+                self.record.events.append(("command", int(msg.pass_index)))
             self.record.commands[int(msg.pass_index)] = {
                 "force_n": msg.normal_force_n, "feed_mm_s": msg.feed_speed_mm_s, "cut_depth_mm": msg.cut_depth_mm,
                 "specific_energy_j_mm3": msg.specific_energy_j_mm3, "material_mm": msg.material_remaining_mm,

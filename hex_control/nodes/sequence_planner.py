@@ -135,7 +135,9 @@ class SequencePlannerNode(Node):
         self._result_stamp = TimeMsg()  # of the latest pass result applied (plant time)
 
         self.command_pub = self.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
-        self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", 10)
+        # kept (the last 10 decisions): an observer that matches the planner late, as after its
+        # restart, still learns every pass it commanded
+        self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", RESULTS)
         self.result_pub = self.create_publisher(GrindBead.Result, "~/job_result", LATCHED)
         self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
         self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_prediction, 10)
