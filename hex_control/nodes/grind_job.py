@@ -54,10 +54,9 @@ class JobObserver(Node):
         self.job_result = None
 
     def destroy_node(self) -> None:
-        # rclpy's destroy_node leaves waitables alone: the action client would keep the node,
-        # and with it the context's DDS participant, until the garbage collector finalized it
-        # at some later moment (a bench of 43 graph starts in one process held 13 participants
-        # and deadlocked in Fast DDS when one was finalized)
+        # rclpy's destroy_node leaves waitables: the action client would keep the node and its
+        # DDS participant until the garbage collector finalized it, at a moment that can
+        # deadlock Fast DDS against the process's other participants
         self.client.destroy()
         super().destroy_node()
 
@@ -144,9 +143,7 @@ STALL_S = 60.0
 
 
 #: wall seconds for a fresh graph's lock-step loop to close once its streams have matched
-#: (the plant's first state answered: at most a re-send, 1 s, once both sides have matched).
-#: Before the force-axis command was stamped with the state it answers, one to three starts in
-#: a hundred never closed it (hexctl bench graph-starts); such a graph was started again
+#: (the plant's first state answered: at most one re-send, 1 s, after both sides matched)
 LOOP_START_S = 30.0
 
 
