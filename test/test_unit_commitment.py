@@ -1,0 +1,92 @@
+"""Seed 000 part 2 (Yan & Blankenship): the fleets of the appendix (Tables 3 and 4) and
+economic dispatch at equal incremental cost (eq. 2.7)."""
+
+import math
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+from hex_control.unit_commitment.dispatch import economic_dispatch
+from hex_control.unit_commitment.fleet import Fleet, Unit, exponential_start_cost
+
+
+def test_the_appendix_fleets_load_with_their_corrections():
+    """Table 3 (18 machines) and Table 4 (41), read from the OCR'd scan with the garbled
+    digits corrected (each correction listed in its file with the reason)."""
+    fleet_18, fleet_41 = Fleet.from_yaml("fleet_18.yaml"), Fleet.from_yaml("fleet_41.yaml")
+    assert len(fleet_18) == 18 and len(fleet_41) == 41
+    assert fleet_18.units[8].a3 == fleet_18.units[9].a3 == 0.012167  # machine 9: printed 0.121670
+    assert fleet_18.units[1].start_cost[4] == 392.0 and fleet_41.units[1].start_cost[0] == 156.39
+    assert fleet_18.capacity_mw == (500.0, 3646.0)  # the columns of Table 3 summed
+    assert fleet_41.capacity_mw == (6020.0, 15140.0)  # Fig. 2, a table of this fleet, reaches 15 000 MW
+    for fleet in (fleet_18, fleet_41):
+        for unit in fleet.units:  # a start costs more the longer the unit was down
+            assert np.all(np.diff(unit.start_cost) >= 0), unit
+
+
+def test_start_costs_by_hours_down():
+    unit = Fleet.from_yaml("fleet_18.yaml").units[0]  # CS(1..6) = 83, 163, 242, 318, 392, 464
+    assert [unit.starting_cost(h) for h in (1, 2, 6, 7, 48)] == [83.0, 163.0, 464.0, 464.0, 464.0]
+    with pytest.raises(ValueError):
+        unit.starting_cost(0)
+    # eq. 2.6: b1 (1 - b2 exp(-b3 d)) rises to b1 with the down time
+    costs = exponential_start_cost(500.0, 0.9, 0.2, [0, 1, 6, 100])
+    assert costs[0] == pytest.approx(50.0) and np.all(np.diff(costs) > 0) and costs[-1] == pytest.approx(500.0)
+
+
+def _random_units(rng, n):
+    g_min = rng.uniform(0.0, 100.0, n)
+    return [Unit(float(lo), float(lo + rng.uniform(10.0, 400.0)), float(rng.uniform(0, 500)),
+                 float(rng.uniform(3.0, 8.0)), float(rng.uniform(1e-4, 5e-2))) for lo in g_min]
+
+
+def test_dispatch_meets_the_kkt_conditions_of_eq_2_7():
+    """On 300 random fleets and demands: the levels sum to the demand within their bounds;
+    units strictly inside their bounds run at one incremental cost lambda, those at G_min
+    at or above it, those at G_max at or below it -- the optimality conditions of this
+    convex problem."""
+    rng = np.random.default_rng(0)
+    for _ in range(300):
+        units = _random_units(rng, int(rng.integers(1, 12)))
+        low, high = sum(u.g_min_mw for u in units), sum(u.g_max_mw for u in units)
+        demand = float(rng.uniform(low, high))
+        d = economic_dispatch(units, demand)
+        g = d.levels_mw
+        assert g.sum() == pytest.approx(demand, rel=1e-12, abs=1e-9)
+        ic = np.array([u.incremental_cost(x) for u, x in zip(units, g)])
+        at_min = np.isclose(g, [u.g_min_mw for u in units], atol=1e-9)
+        at_max = np.isclose(g, [u.g_max_mw for u in units], atol=1e-9)
+        inside = ~at_min & ~at_max
+        np.testing.assert_allclose(ic[inside], d.incremental_cost, rtol=1e-9)
+        assert np.all(ic[at_min & ~at_max] >= d.incremental_cost - 1e-9)
+        assert np.all(ic[at_max & ~at_min] <= d.incremental_cost + 1e-9)
+        assert d.cost_per_h == pytest.approx(sum(float(u.running_cost(x)) for u, x in zip(units, g)))
+
+
+def test_dispatch_is_no_dearer_than_a_general_solver():
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        units = _random_units(rng, 5)
+        bounds = [(u.g_min_mw, u.g_max_mw) for u in units]
+        demand = float(rng.uniform(sum(b[0] for b in bounds), sum(b[1] for b in bounds)))
+        cost = lambda g: sum(float(u.running_cost(x)) for u, x in zip(units, g))  # noqa: E731
+        start = np.array([lo + (hi - lo) * 0.5 for lo, hi in bounds])
+        start *= demand / start.sum()
+        best = minimize(cost, np.clip(start, *np.array(bounds).T), bounds=bounds, method="SLSQP",
+                        constraints=[{"type": "eq", "fun": lambda g: g.sum() - demand}], options={"ftol": 1e-12})
+        assert economic_dispatch(units, demand).cost_per_h <= best.fun + 1e-6
+
+
+def test_dispatch_refuses_what_it_cannot_do():
+    units = list(Fleet.from_yaml("fleet_18.yaml").units[:3])  # 45 .. 169 MW together
+    for demand in (40.0, 170.0, math.nan):
+        with pytest.raises(ValueError, match="outside"):
+            economic_dispatch(units, demand)
+    with pytest.raises(ValueError, match="no unit"):
+        economic_dispatch([], 10.0)
+    with pytest.raises(ValueError, match="a3 > 0"):
+        economic_dispatch([Unit(0.0, 10.0, 1.0, 2.0, 0.0)], 5.0)
+    np.testing.assert_allclose(economic_dispatch(units, 45.0).levels_mw, [15.0, 15.0, 15.0])  # all at G_min
+    with pytest.raises(ValueError):
+        Unit(50.0, 40.0, 1.0, 1.0, 1.0)
