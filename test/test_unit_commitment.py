@@ -1,12 +1,14 @@
 """Seed 000 part 2 (Yan & Blankenship): the fleets of the appendix (Tables 3 and 4) and
 economic dispatch at equal incremental cost (eq. 2.7)."""
 
+import itertools
 import math
 
 import numpy as np
 import pytest
 from scipy.optimize import minimize
 
+from hex_control.unit_commitment.commitments import cheapest_commitments
 from hex_control.unit_commitment.dispatch import economic_dispatch
 from hex_control.unit_commitment.fleet import Fleet, Unit, exponential_start_cost
 
@@ -90,3 +92,31 @@ def test_dispatch_refuses_what_it_cannot_do():
     np.testing.assert_allclose(economic_dispatch(units, 45.0).levels_mw, [15.0, 15.0, 15.0])  # all at G_min
     with pytest.raises(ValueError):
         Unit(50.0, 40.0, 1.0, 1.0, 1.0)
+
+
+def _brute_force(fleet, total_mw, k):
+    costs = []
+    for on in itertools.product([False, True], repeat=len(fleet)):
+        units = [u for u, x in zip(fleet.units, on) if x]
+        if units and sum(u.g_min_mw for u in units) <= total_mw <= sum(u.g_max_mw for u in units):
+            costs.append(economic_dispatch(units, total_mw).cost_per_h)
+    return sorted(costs)[:k]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_k_cheapest_commitments_are_those_of_brute_force(seed):
+    """Section 4's table rows: the K cheapest commitments of a total generation, by branch
+    and bound, against all 2^M commitments, on random fleets of up to 12 units and on the
+    first 12 machines of Table 3."""
+    rng = np.random.default_rng(seed)
+    if seed == 0:
+        fleet = Fleet("table3_first_12", Fleet.from_yaml("fleet_18.yaml").units[:12])
+    else:
+        fleet = Fleet(f"random_{seed}", tuple(_random_units(rng, int(rng.integers(4, 13)))))
+    top = sum(u.g_max_mw for u in fleet.units)
+    for total in rng.uniform(0.05, 0.95, 4) * top:
+        k = int(rng.integers(1, 8))
+        found = cheapest_commitments(fleet, float(total), k)
+        np.testing.assert_allclose([c.cost_per_h for c in found], _brute_force(fleet, total, k), rtol=1e-12)
+        for c in found:  # each a real commitment at its economic dispatch
+            assert c.levels_mw.sum() == pytest.approx(total) and not np.any(c.levels_mw[~np.array(c.on)])
