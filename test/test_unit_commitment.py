@@ -120,3 +120,27 @@ def test_the_k_cheapest_commitments_are_those_of_brute_force(seed):
         np.testing.assert_allclose([c.cost_per_h for c in found], _brute_force(fleet, total, k), rtol=1e-12)
         for c in found:  # each a real commitment at its economic dispatch
             assert c.levels_mw.sum() == pytest.approx(total) and not np.any(c.levels_mw[~np.array(c.on)])
+
+
+def test_the_table_spaces_its_levels_by_rule_4_1():
+    """Fig. 2 / eq. 4.1: consecutive levels are the nominal step apart, or less where the
+    cheapest commitment changes within it -- and then it changes right there (within the
+    resolution), not before."""
+    from hex_control.unit_commitment.table import commitment_class, scheduling_table
+
+    fleet = Fleet("table3_first_8", Fleet.from_yaml("fleet_18.yaml").units[:8])
+    rows = scheduling_table(fleet, k=3, step_mw=50.0, resolution_mw=0.5)
+    levels = [row.total_mw for row in rows]
+    assert levels[0] == 15.0 and levels[-1] == pytest.approx(sum(u.g_max_mw for u in fleet.units))
+    steps = np.diff(levels)
+    assert np.all(steps > 0) and np.all(steps <= 50.0 + 1e-9)
+    shortened = [j for j, step in enumerate(steps) if step < 50.0 - 1e-9 and j + 1 < len(rows) - 1]
+    assert shortened  # the cheapest commitment changes inside some steps
+    kind = lambda on: commitment_class(fleet, on)  # noqa: E731 (identical units are one kind)
+    for j in shortened:
+        assert kind(rows[j + 1].cheapest.on) != kind(rows[j].cheapest.on)
+        before = cheapest_commitments(fleet, levels[j + 1] - 0.5, 1)[0].on
+        assert kind(before) == kind(rows[j].cheapest.on)
+    for row in rows:
+        np.testing.assert_allclose([c.cost_per_h for c in row.candidates], _brute_force(fleet, row.total_mw, 3),
+                                   rtol=1e-12)
