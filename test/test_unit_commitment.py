@@ -144,3 +144,30 @@ def test_the_table_spaces_its_levels_by_rule_4_1():
     for row in rows:
         np.testing.assert_allclose([c.cost_per_h for c in row.candidates], _brute_force(fleet, row.total_mw, 3),
                                    rtol=1e-12)
+
+
+def test_storage_makes_the_generation_as_flat_as_its_limits_allow():
+    """Section 4 (i)-(iii): sum r = 0 (eq. 4.3), R bounds (2.3), S bounds (2.4); G = L + r
+    as flat as possible. Without store bounds the water-filling level is the exact optimum
+    (a general solver finds no flatter one); with them every limit holds."""
+    from hex_control.unit_commitment.storage import Storage, flatten, water_filling
+
+    hours = np.arange(24)
+    demand = 7000.0 + 2500.0 * np.sin((hours - 9) * np.pi / 12) ** 2  # a two-humped day (MW)
+    r = water_filling(demand, -800.0, 600.0)
+    assert abs(r.sum()) < 1e-6 and r.min() >= -800.0 - 1e-9 and r.max() <= 600.0 + 1e-9
+    g = demand + r
+    inside = (r > -800.0 + 1e-6) & (r < 600.0 - 1e-6)
+    assert inside.any() and np.ptp(g[inside]) < 1e-6  # one level wherever no bound binds
+    general = minimize(lambda x: np.sum((demand + x) ** 2), np.zeros(24), method="SLSQP",
+                       bounds=[(-800.0, 600.0)] * 24, constraints=[{"type": "eq", "fun": np.sum}],
+                       options={"ftol": 1e-14, "maxiter": 500})
+    assert np.sum(g**2) <= general.fun * (1 + 1e-9)
+    store = Storage(-800.0, 600.0, 0.0, 2000.0, 1000.0)  # a 2 GWh store, half full
+    r = flatten(demand, store)
+    stored = store.stored_mwh(r)
+    assert abs(r.sum()) < 1e-6 and np.all(r >= -800.0 - 1e-6) and np.all(r <= 600.0 + 1e-6)
+    assert np.all(stored >= -1e-6) and np.all(stored <= 2000.0 + 1e-6)
+    assert np.std(demand + r) < np.std(demand) and np.sum((demand + r) ** 2) >= np.sum(g**2) - 1e-6
+    with pytest.raises(ValueError):
+        Storage(100.0, 600.0)
