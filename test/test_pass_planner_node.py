@@ -191,9 +191,11 @@ def test_a_path_out_of_the_machines_reach_is_refused_before_anything_moves(ros, 
     config["bead_frame"]["origin_mm"] = [-75.0, 0.0, 0.0]
     (tmp_path / "far.yaml").write_text(yaml.safe_dump(config))
     spawn(["hex-kinematics"])
-    # the refusal is under test, not a slow start: the planner waits only contour_wait_s for the service
+    # the refusal is under test, not a slow start: the planner waits for its own client to see
+    # the service (at most contour_wait_s; start_planner's 1 s was too short for a loaded CI)
     ros.wait_for_service(ros.node("reach_probe").create_client(TestPose, "/kinematics/test_pose"), 60.0)
-    publishers, outputs = start_planner(ros, spawn, "-p", f"config:={tmp_path / 'far.yaml'}")
+    publishers, outputs = start_planner(ros, spawn, "-p", f"config:={tmp_path / 'far.yaml'}", "-p",
+                                        "contour_wait_s:=60.0")
     publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
     publishers["command"].publish(_command())
     result = wait_until(lambda: outputs["result"][-1] if outputs["result"] else None, 30.0, what="a refusal")
