@@ -33,6 +33,17 @@ class ConstraintCheck:
         return self.satisfied.all(axis=1)
 
 
+class JointPositionsFromConstraints:
+    """``joint_positions_mm`` as the kinds give it: their ``constraint_check``'s positions and
+    reachability, so that the two never disagree."""
+
+    def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """(joint positions (n, joints) mm, reachable (n,)) of n poses (x, y, z mm, roll,
+        pitch, yaw rad)."""
+        check = self.constraint_check(poses)
+        return check.positions_mm, check.reachable
+
+
 class ToolTracker(Protocol):
     def tool_position_mm(self, positions_mm) -> np.ndarray:
         """The tool point (3,) mm where these joint positions hold it, solved from the last."""

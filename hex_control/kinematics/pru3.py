@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hex_control.kinematics.machine_kind import ConstraintCheck
+from hex_control.kinematics.machine_kind import ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
 _INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
@@ -37,7 +37,7 @@ _PARASITIC = [0, 1, 5]  # x, y, gamma
 
 
 @dataclass(frozen=True)
-class Pru3Geometry:
+class Pru3Geometry(JointPositionsFromConstraints):
     """Seed 001 section 4.2: R = 180 mm, r = 120 mm, l = 150 mm, rails at 0/120/240 deg,
     stroke 0..100 mm, tilts within +-30 deg (section 4.1)."""
 
@@ -76,7 +76,8 @@ class Pru3Geometry:
 
     def constraint_check(self, poses) -> ConstraintCheck:
         """Strokes (sliders and feed stage) as set I, the tilt limit as set II; the head has
-        no base-joint or strut-distance constraints."""
+        no base-joint or strut-distance constraints. The head holds z, alpha = roll and
+        beta = pitch; the feed stage, if any, carries x (:func:`joint_check`)."""
         check = joint_check(self, poses)
         # a pose the rockers cannot reach has no slider position: outside the stroke
         stroke = np.where(np.isfinite(check.stroke_margin_mm), check.stroke_margin_mm, -np.inf)
@@ -113,13 +114,6 @@ class Pru3Geometry:
         pose = solved.full[0].copy()
         pose[:3] = tool_positions_mm(solved, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]
         return pose, used, float(np.max(np.abs(solved.lengths_mm[0] - positions_mm[:3])))
-
-    def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
-        """(joint positions (n, joints) mm, reachable (n,)) of n tool poses (x, y, z mm,
-        roll, pitch, yaw rad): the head holds z, alpha = roll, beta = pitch; the feed stage,
-        if any, carries x (see :func:`joint_check`)."""
-        check = joint_check(self, poses)
-        return check.positions_mm, check.reachable
 
     def tool_tracker(self) -> Pru3ToolTracker:
         """Forward kinematics of the head in motion, warm-started from the last pose:

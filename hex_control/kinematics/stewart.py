@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hex_control.kinematics.machine_kind import ConstraintCheck
+from hex_control.kinematics.machine_kind import ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 from hex_control.kinematics.segments import closest_parameters
 
@@ -31,7 +31,7 @@ def _per_strut(value, name: str) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class StewartGeometry:
+class StewartGeometry(JointPositionsFromConstraints):
     """Joint coordinates and limits of a 6-6 Stewart-Gough platform (mm, rad).
 
     ``platform_joints_mm`` are in the platform frame, whose origin is the tool point
@@ -115,12 +115,6 @@ class StewartGeometry:
         pose if it is all zeros."""
         guess = np.asarray(guess, float)
         return forward_kinematics(self, positions_mm, guess if np.any(guess) else None, tolerance_mm, max_iterations)
-
-    def joint_positions_mm(self, poses) -> tuple[np.ndarray, np.ndarray]:
-        """(strut lengths (n, 6) mm, reachable (n,)) of n tool poses (x, y, z mm, roll,
-        pitch, yaw rad): inverse kinematics with constraint sets I-IV, vectorized."""
-        check = check_poses(self, poses)
-        return check.lengths_mm, check.reachable
 
     def tool_tracker(self) -> TrackingForwardKinematics:
         """Forward kinematics of the machine in motion, warm-started from the last pose:
