@@ -54,7 +54,8 @@ def _running(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
 
 
 def _search(fleet: Fleet, generation_mw, options, initially_on) -> DaySchedule:
-    """DP over hours; states (commitment, down times), each hour's commitments from ``options(t)``."""
+    """DP over the hours, each hour's commitments from ``options(t)``; a state is every unit's
+    hours down (0: on), with the cheapest day into it."""
     start = tuple(0 if state else CAP_HOURS for state in initially_on)
     states = {start: (0.0, 0.0, [])}  # down times -> (running, starting, commitments)
     for t, total in enumerate(generation_mw):
