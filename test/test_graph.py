@@ -1,5 +1,5 @@
 """The node graph as processes (hex_control.nodes.graph): a graph that does not start says
-where each node waits before it is stopped."""
+where each node waits before it is stopped; a run's job directory is its own."""
 
 from diagnostic_msgs.msg import DiagnosticArray
 
@@ -23,3 +23,22 @@ def test_a_dump_writes_every_threads_traceback_into_the_nodes_log_and_the_node_r
     finally:
         codes = graph.stop()
     assert codes == {"kinematics": 0}
+
+
+def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
+    """The sequence planner resumes any unfinished job in its job directory: a demo run
+    again into the same output after one was cut off moves that log aside and starts clean;
+    finished logs stay where they are."""
+    from hex_control.nodes.grind_job import fresh_job_dir
+
+    jobs = tmp_path / "jobs"
+    jobs.mkdir()
+    (jobs / "done.jsonl").write_text('{"type": "goal"}\n{"type": "end", "reason": "done"}\n')
+    assert fresh_job_dir(tmp_path) == jobs and (jobs / "done.jsonl").exists()  # nothing to resume
+    (jobs / "cut_off.jsonl").write_text('{"type": "goal"}\n{"type": "decision"}\n')
+    assert fresh_job_dir(tmp_path) == jobs and not jobs.exists()
+    assert sorted(p.name for p in (tmp_path / "jobs-1").iterdir()) == ["cut_off.jsonl", "done.jsonl"]
+    jobs.mkdir()
+    (jobs / "again.jsonl").write_text('{"type": "goal"}\n')
+    fresh_job_dir(tmp_path)
+    assert (tmp_path / "jobs-2" / "again.jsonl").exists()

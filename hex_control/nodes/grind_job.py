@@ -23,6 +23,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from hex_control.config import config_file
+from hex_control.grinding.job import unfinished_logs
 from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
@@ -147,6 +148,19 @@ STALL_S = 60.0
 LOOP_START_S = 30.0
 
 
+def fresh_job_dir(output: Path) -> Path:
+    """``output/jobs`` for this run's sequence planner, which resumes any unfinished job it
+    finds there: an earlier run's that was cut off is moved aside to ``jobs-<n>`` first (a
+    fresh demo must not take up an old job; the drills resume within one run)."""
+    jobs = Path(output) / "jobs"
+    if jobs.is_dir() and unfinished_logs(jobs):
+        n = 1
+        while (aside := jobs.with_name(f"jobs-{n}")).exists():
+            n += 1
+        jobs.rename(aside)
+    return jobs
+
+
 class JobSession:
     """A fresh graph, an observer in its own rclpy context, and one job on it. Use as a
     context manager; ``start_job`` sends the goal, ``wait_for_outcome`` spins to the end
@@ -155,7 +169,7 @@ class JobSession:
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
                  plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None):
         self.output = Path(output)
-        self.graph = NodeGraph(graph_nodes(self.output / "jobs", seed, mode, plant_overrides, machine_file,
+        self.graph = NodeGraph(graph_nodes(fresh_job_dir(self.output), seed, mode, plant_overrides, machine_file,
                                            real_time_factor), self.output / "logs", placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
