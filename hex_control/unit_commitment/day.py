@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hex_control.unit_commitment.commitments import cheapest_commitments
 from hex_control.unit_commitment.dispatch import economic_dispatch
 from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.table import cheapest_commitments
 
 CAP_HOURS = 6  # the tables' last column: a longer down time costs as much to start
 
@@ -47,10 +47,10 @@ def _step(fleet: Fleet, down: tuple[int, ...], on: tuple[bool, ...]) -> tuple[tu
 
 
 def _running(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
-    units = [u for u, state in zip(fleet.units, on) if state]
-    if not units or not sum(u.g_min_mw for u in units) <= total_mw <= sum(u.g_max_mw for u in units):
+    try:  # the dispatch refuses a total its units cannot generate
+        return economic_dispatch([u for u, state in zip(fleet.units, on) if state], total_mw).cost_per_h
+    except ValueError:
         return np.inf
-    return economic_dispatch(units, total_mw).cost_per_h
 
 
 def _search(fleet: Fleet, generation_mw, options, initially_on) -> DaySchedule:
