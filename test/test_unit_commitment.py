@@ -95,12 +95,16 @@ def test_dispatch_refuses_what_it_cannot_do():
 
 
 def _brute_force(fleet, total_mw, k):
-    costs = []
+    """The k cheapest costs over all 2^M commitments, those that differ only in which of
+    identical units are on counted once."""
+    from hex_control.unit_commitment.table import commitment_class
+
+    costs = {}
     for on in itertools.product([False, True], repeat=len(fleet)):
         units = [u for u, x in zip(fleet.units, on) if x]
         if units and sum(u.g_min_mw for u in units) <= total_mw <= sum(u.g_max_mw for u in units):
-            costs.append(economic_dispatch(units, total_mw).cost_per_h)
-    return sorted(costs)[:k]
+            costs[commitment_class(fleet, on)] = economic_dispatch(units, total_mw).cost_per_h
+    return sorted(costs.values())[:k]
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -208,11 +212,175 @@ def test_the_exact_day_is_the_cheapest_of_all_commitment_sequences():
 def test_the_table_schedule_is_within_half_a_percent_of_exact_dynamic_programming(machines):
     """Section 5, Table 1: on 3 and 5 machines the paper's algorithm and DP differ by
     0.02-0.3 %. Here 3 and 5 machines of Table 3 over a day, the table's 3 cheapest
-    commitments an hour against all commitments with every unit's down time."""
+    commitments at the levels about each hour against all commitments with every unit's
+    down time."""
     from hex_control.unit_commitment.day import exact_schedule, schedule_from_table
+    from hex_control.unit_commitment.table import scheduling_table
 
     fleet = Fleet(f"table3_{len(machines)}", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in machines))
     generation = _day(fleet)
-    exact, table = exact_schedule(fleet, generation), schedule_from_table(fleet, generation, 3)
+    rows = scheduling_table(fleet, k=3, step_mw=25.0)
+    exact, table = exact_schedule(fleet, generation), schedule_from_table(fleet, generation, rows)
     assert exact.total_cost <= table.total_cost <= 1.005 * exact.total_cost
     assert len(table.commitments) == 24
+
+
+def _small_day():
+    """Seven machines of Table 3 over the example day, with its store (scaled to them)."""
+    from hex_control.unit_commitment.demand import example_day
+    from hex_control.unit_commitment.table import scheduling_table
+
+    fleet = Fleet("table3_7", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in (0, 2, 5, 6, 10, 12, 14)))
+    return fleet, example_day(fleet), scheduling_table(fleet, k=4, step_mw=50.0)
+
+
+def test_the_example_day_is_the_ieee_rts_shape_scaled_to_the_fleet():
+    from hex_control.unit_commitment.demand import example_day
+
+    fleet = Fleet.from_yaml("fleet_41.yaml")
+    day = example_day(fleet)
+    assert day.demand_mw.shape == (24,)
+    assert day.demand_mw.max() == pytest.approx(0.85 * 15140.0)
+    assert day.demand_mw.min() == pytest.approx(0.59 * 0.85 * 15140.0)  # RTS-79's winter weekday trough
+    assert np.argmax(day.demand_mw) == 17 and np.argmin(day.demand_mw) == 3
+    assert day.storage.r_max_mw == pytest.approx(0.1 * day.demand_mw.max()) == -day.storage.r_min_mw
+    assert day.storage.s_max_mwh == pytest.approx(6 * day.storage.r_max_mw)
+
+
+def test_the_cheapest_transfers_run_every_hour_at_one_incremental_cost():
+    """Eq. 2.7 across the hours: for fixed commitments the day is cheapest where every hour
+    whose transfer is inside its limits has the same lambda; no general solver finds a
+    cheaper day; sum r = 0 (4.3) and the R and S bounds (2.3, 2.4) hold."""
+    from hex_control.unit_commitment.day import cheapest_transfers, transfer_bounds
+    from hex_control.unit_commitment.storage import Storage
+
+    fleet, day, _ = _small_day()
+    commitments = [(True,) * len(fleet)] * 24
+    free = Storage(day.storage.r_min_mw, day.storage.r_max_mw)
+    r = cheapest_transfers(fleet, commitments, day.demand_mw, free)
+    lower, upper = transfer_bounds(fleet, commitments, day.demand_mw, free)
+    assert abs(r.sum()) < 1e-6 and np.all(r >= lower - 1e-9) and np.all(r <= upper + 1e-9)
+    lam = np.array([economic_dispatch(fleet.units, g).incremental_cost for g in day.demand_mw + r])
+    inside = (r > lower + 1e-6) & (r < upper - 1e-6)
+    assert inside.sum() >= 2 and np.ptp(lam[inside]) < 1e-6
+
+    def cost(x):
+        return sum(economic_dispatch(fleet.units, g).cost_per_h for g in day.demand_mw + x)
+
+    general = minimize(cost, np.zeros(24), method="SLSQP", bounds=list(zip(lower, upper)),
+                       constraints=[{"type": "eq", "fun": np.sum}], options={"ftol": 1e-12, "maxiter": 500})
+    assert cost(r) <= general.fun + 1e-6
+    bound = cheapest_transfers(fleet, commitments, day.demand_mw, day.storage)  # the store's size binds
+    stored = day.storage.stored_mwh(bound)
+    assert abs(bound.sum()) < 1e-6 and stored.min() >= -1e-6 and stored.max() <= day.storage.s_max_mwh + 1e-6
+    assert cost(r) <= cost(bound) <= cost(np.zeros(24))
+
+
+def test_the_deterministic_schedule_keeps_every_limit_and_only_gets_cheaper():
+    """Sections 3 and 5: r(t) with sum r = 0 and the R and S bounds, commitments from the
+    table meeting G = L + r within their units' bounds; the compensation rounds end no
+    dearer than the flat transfers' schedule they start from."""
+    from hex_control.unit_commitment.day import deterministic_schedule, schedule_from_table
+    from hex_control.unit_commitment.storage import flatten
+
+    fleet, day, table = _small_day()
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
+    r, store = plan.transfers_mw, day.storage
+    assert abs(r.sum()) < 1e-6 and r.min() >= store.r_min_mw - 1e-9 and r.max() <= store.r_max_mw + 1e-9
+    stored = store.stored_mwh(r)
+    assert stored.min() >= store.s_min_mwh - 1e-6 and stored.max() <= store.s_max_mwh + 1e-6
+    for on, g in zip(plan.schedule.commitments, plan.generation_mw):
+        units = [u for u, x in zip(fleet.units, on) if x]
+        assert sum(u.g_min_mw for u in units) - 1e-6 <= g <= sum(u.g_max_mw for u in units) + 1e-6
+    flat = schedule_from_table(fleet, day.demand_mw + flatten(day.demand_mw, store), table)
+    assert plan.total_cost <= flat.total_cost
+    assert plan.unit_cost == pytest.approx(plan.total_cost / day.demand_mw.sum())
+
+
+def test_the_milp_brackets_the_exact_day_and_the_table_algorithm_is_near_it():
+    """Issue 24 item 6: the MILP with tangent costs is a lower bound, its commitments
+    exactly dispatched an upper one; on three machines of Table 3 with no store the exact
+    DP lies between them. On seven machines with the store the table algorithm is within
+    0.5 % of the MILP's lower bound."""
+    from hex_control.unit_commitment.day import deterministic_schedule, exact_schedule
+    from hex_control.unit_commitment.milp import milp_schedule
+    from hex_control.unit_commitment.storage import Storage
+
+    fleet = Fleet("table3_3", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in (0, 2, 5)))
+    generation = _day(fleet)
+    exact = exact_schedule(fleet, generation)
+    peer = milp_schedule(fleet, generation, Storage(0.0, 0.0), mip_rel_gap=1e-6)
+    assert peer.lower_bound <= exact.total_cost + 1e-6 <= peer.plan.total_cost + 2e-6
+    assert peer.gap < 1e-3
+    fleet, day, table = _small_day()
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
+    peer = milp_schedule(fleet, day.demand_mw, day.storage, mip_rel_gap=1e-4)
+    assert peer.lower_bound <= plan.total_cost <= 1.005 * peer.lower_bound
+
+
+def test_the_fluctuations_have_the_stated_statistics_and_the_predictor_is_identified():
+    """Eq. 6.1 (uniform on +-alpha) and 6.2-6.3 (Gauss-Markov), both at 1.42 % std; section
+    6: a, W, V identified from 80 days of measurements find the Gauss-Markov a."""
+    from hex_control.unit_commitment.online import LoadFluctuation, identified_predictor
+
+    rng = np.random.default_rng(3)
+    uniform, _ = LoadFluctuation("uniform").draw(200_000, rng)
+    assert np.std(uniform) == pytest.approx(0.0142, rel=0.01)
+    assert np.max(np.abs(uniform)) <= math.sqrt(3) * 0.0142
+    markov, measured = LoadFluctuation("gauss_markov", a=0.8).draw(200_000, rng)
+    assert np.std(markov) == pytest.approx(0.0142, rel=0.03)
+    assert np.corrcoef(markov[:-1], markov[1:])[0, 1] == pytest.approx(0.8, abs=0.01)
+    assert np.std(measured - markov) == pytest.approx(0.002, rel=0.02)
+    _, found = identified_predictor(LoadFluctuation("gauss_markov", a=0.8), 80 * 24, rng)
+    assert found.model.a == pytest.approx(0.8, abs=0.05)
+    with pytest.raises(ValueError):
+        LoadFluctuation("brownian")
+
+
+def test_on_line_the_predictable_load_costs_less_than_the_random_one():
+    """Section 7: at a fluctuation of 1.42 % std the on-line unit cost rises less over the
+    deterministic for Gauss-Markov load than for random (0.031 % vs 0.058 % in the paper).
+    Measured against each day's own demand scheduled off-line in hindsight, so the figure
+    is the price of not knowing the demand (not the demand's own variation); here on seven
+    machines over 24 days, the ordering by more than 3 standard errors. Every day is served:
+    each hour's generation is its demand plus its transfer."""
+    from hex_control.unit_commitment.day import deterministic_schedule
+    from hex_control.unit_commitment.online import LoadFluctuation, compare_online
+    from hex_control.unit_commitment.storage import Storage
+
+    fleet, day, table = _small_day()
+    store = Storage(day.storage.r_min_mw, day.storage.r_max_mw)  # its size unbounded: faster, the same ordering
+    plan = deterministic_schedule(fleet, day.demand_mw, store, table)
+    increases = {}
+    for kind in ("uniform", "gauss_markov"):
+        result = compare_online(fleet, table, plan, store, LoadFluctuation(kind), 24, np.random.default_rng(7))
+        values = result.over_hindsight
+        increases[kind] = (values.mean(), values.std(ddof=1) / math.sqrt(values.size))
+        assert result.unplanned_hours == 0
+    (uniform, se_uniform), (markov, se_markov) = increases["uniform"], increases["gauss_markov"]
+    assert 0 < markov < uniform < 0.001  # a small price, of under 0.1 %
+    assert uniform - markov > 3 * math.hypot(se_uniform, se_markov)
+
+
+@pytest.mark.parametrize("fleet_file", ["fleet_18.yaml", "fleet_41.yaml"])
+def test_on_the_appendix_fleets_the_table_algorithm_is_within_half_a_percent_of_the_milp(fleet_file):
+    """Section 5 / Table 1 against the peer of issue 24 item 6: the example day on 18 and
+    41 machines (Tables 3 and 4), the table algorithm's daily cost against the MILP's lower
+    bound (tangent costs, HiGHS's dual bound at a 0.5 % gap): within 0.5 %. (Measured at a
+    0.1 % gap: 0.049 % on 18 machines, 0.038 % on 41; README.) The table holds the levels
+    the day's flattened generation can reach."""
+    from hex_control.unit_commitment.day import deterministic_schedule
+    from hex_control.unit_commitment.demand import example_day
+    from hex_control.unit_commitment.milp import milp_schedule
+    from hex_control.unit_commitment.table import scheduling_table
+
+    fleet = Fleet.from_yaml(fleet_file)
+    day = example_day(fleet)
+    low = day.demand_mw.min() + day.storage.r_min_mw
+    high = day.demand_mw.max() + day.storage.r_max_mw
+    table = scheduling_table(fleet, k=5, start_mw=low - 100.0, end_mw=high + 100.0)
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
+    peer = milp_schedule(fleet, day.demand_mw, day.storage, mip_rel_gap=5e-3)
+    assert peer.lower_bound <= plan.total_cost <= 1.005 * peer.lower_bound
+    assert peer.lower_bound <= peer.plan.total_cost
+    assert abs(plan.transfers_mw.sum()) < 1e-6

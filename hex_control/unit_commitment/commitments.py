@@ -8,8 +8,8 @@ units are fixed on or off one at a time, cheapest per MW first, and a branch is 
 a lower bound on every commitment in it is no better than the K-th found so far. The bound
 is the Lagrangian dual of the dispatch (the relaxation of Bertsekas et al., the paper's
 [3]): for any lambda, lambda G + sum over units of min over their states of (CG - lambda
-G_i), each unit on or off as it likes unless fixed; it is maximized over lambda by
-bisection on its slope. Weak duality makes it a bound at every lambda, so the search is
+G_i), each unit on or off as it likes unless fixed; it is maximized over lambda on a
+grid that closes in (the dual is concave). Weak duality makes it a bound at every lambda, so the search is
 exact; where the bound ties the K-th cost the branch is cut, which may drop a commitment
 of that same cost, never a cheaper one.
 
@@ -45,44 +45,45 @@ class _Fleet:
             np.array([getattr(u, name) for u in fleet.units], float) for name in names)
         # above this lambda every unit would rather be on, at G_max (CG(G_max) < lambda G_max)
         self.lambda_max = float(np.max(self.a2 + 2 * self.a3 * self.g_max + self.a1 / self.g_max)) + 1.0
+        self.half_inverse_a3 = 0.5 / self.a3
 
-    def unit_terms(self, lam: float):
-        """(min over G_i in bounds of CG - lambda G_i, its G_i) of every unit at ``lam``."""
-        g = np.clip((lam - self.a2) / (2 * self.a3), self.g_min, self.g_max)
-        return self.a1 + (self.a2 - lam) * g + self.a3 * g * g, g
-
-    def bound(self, total_mw: float, on: np.ndarray, free: np.ndarray, iterations: int = 60) -> float:
+    def bound(self, total_mw: float, on: np.ndarray, free: np.ndarray, stages: int = 5,
+              points: int = 16) -> tuple[float, np.ndarray]:
         """The dual bound of every commitment with the units ``on`` on and the ``free`` ones
-        either way (the rest off)."""
-        def slope(lam):
-            terms, g = self.unit_terms(lam)
-            used = on | (free & (terms < 0))
-            return total_mw - g[used].sum()
-
-        low, high = 0.0, self.lambda_max
-        for _ in range(iterations):  # the dual is concave: its slope falls through zero
-            middle = 0.5 * (low + high)
-            if slope(middle) > 0:
-                low = middle
-            else:
-                high = middle
-        best = -np.inf
-        for lam in (low, high):
-            terms, _ = self.unit_terms(lam)
-            best = max(best, lam * total_mw + terms[on].sum() + np.minimum(terms[free], 0.0).sum())
-        return float(best)
+        either way (the rest off). The dual is concave in lambda: it is taken on a grid of
+        ``points``, which then closes in around the best of them, ``stages`` times (each
+        grid's best is a bound; the last is within a hundredth of a cost unit of the dual's
+        maximum on the appendix fleets). Also which units the relaxation would have on there."""
+        low, high, best, wanted = 0.0, self.lambda_max, -np.inf, None
+        for _ in range(stages):
+            lam = np.linspace(low, high, points)[:, None]
+            g = np.minimum(np.maximum((lam - self.a2) * self.half_inverse_a3, self.g_min), self.g_max)
+            terms = self.a1 + (self.a2 - lam) * g + self.a3 * g * g  # min over G_i of CG - lambda G_i
+            dual = lam[:, 0] * total_mw + terms[:, on].sum(axis=1) + np.minimum(terms[:, free], 0.0).sum(axis=1)
+            i = int(np.argmax(dual))
+            if dual[i] > best:
+                best, wanted = float(dual[i]), terms[i] < 0
+            step = (high - low) / (points - 1)
+            low, high = max(0.0, float(lam[i, 0]) - step), float(lam[i, 0]) + step
+        return best, wanted
 
 
 def cheapest_commitments(fleet: Fleet, total_mw: float, k: int = 5) -> list[Commitment]:
     """The ``k`` cheapest commitments of ``fleet`` that can generate ``total_mw`` (fewer if
-    fewer can), cheapest first."""
+    fewer can), cheapest first. Commitments that differ only in which of several identical
+    units are on are one: it is listed with the first of them (in the fleet's order) on."""
     if k < 1:
         raise ValueError(f"need k >= 1, got {k}")
     arrays = _Fleet(fleet)
     n = len(fleet)
     if not 0 < total_mw <= arrays.g_max.sum():
         raise ValueError(f"{total_mw} MW is beyond the fleet's 0..{arrays.g_max.sum():g} MW")
-    order = np.argsort(arrays.a1 / arrays.g_max + arrays.a2 + arrays.a3 * arrays.g_max)  # cheapest per MW first
+    order = np.argsort(arrays.a1 / arrays.g_max + arrays.a2 + arrays.a3 * arrays.g_max, kind="stable")
+    # cheapest per MW first; identical units (the same in every figure) end up side by side
+    # and are one choice: of a run of them the first ones are on, so each way of having
+    # n of them on is counted once
+    twin_of_previous = [depth > 0 and fleet.units[order[depth]] == fleet.units[order[depth - 1]]
+                        for depth in range(n)]
     found: list[tuple[float, int, Commitment]] = []  # a max-heap on cost, by negation
     counter = 0
 
@@ -105,10 +106,14 @@ def cheapest_commitments(fleet: Fleet, total_mw: float, k: int = 5) -> list[Comm
                 if len(found) > k:
                     heapq.heappop(found)
             return
-        if arrays.bound(total_mw, on, free) >= kth_cost():
+        bound, wanted = arrays.bound(total_mw, on, free)
+        if bound >= kth_cost():
             return
         unit = order[depth]
-        for state in (True, False):
+        states = (True, False) if wanted[unit] else (False, True)  # the relaxation's choice first
+        if twin_of_previous[depth] and not on[order[depth - 1]]:
+            states = (False,)
+        for state in states:
             branch_on, branch_free = on.copy(), free.copy()
             branch_free[unit] = False
             branch_on[unit] = state

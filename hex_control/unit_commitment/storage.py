@@ -39,35 +39,39 @@ class Storage:
         return self.s_start_mwh + np.cumsum(r_mw)
 
 
-def water_filling(demand_mw, r_min_mw: float, r_max_mw: float) -> np.ndarray:
-    """r(t) with G = clip(c, L + R_min, L + R_max) and sum r = 0 (exact up to rounding)."""
+def water_filling(demand_mw, r_min_mw: float, r_max_mw: float, transfer_total_mwh: float = 0.0) -> np.ndarray:
+    """r(t) with G = clip(c, L + R_min, L + R_max) and sum r = ``transfer_total_mwh`` (0:
+    eq. 4.3), exact up to rounding."""
     demand = np.asarray(demand_mw, float)
     low, high = demand.min() + r_min_mw, demand.max() + r_max_mw
     for _ in range(200):  # sum r(c) grows with c, through zero
         level = 0.5 * (low + high)
-        if np.sum(np.clip(level, demand + r_min_mw, demand + r_max_mw) - demand) > 0:
+        if np.sum(np.clip(level, demand + r_min_mw, demand + r_max_mw) - demand) > transfer_total_mwh:
             high = level
         else:
             low = level
     return np.clip(0.5 * (low + high), demand + r_min_mw, demand + r_max_mw) - demand
 
 
-def flatten(demand_mw, storage: Storage) -> np.ndarray:
-    """The transfers r(t) (MW) that make L + r as flat as possible within the storage's limits."""
+def flatten(demand_mw, storage: Storage, transfer_total_mwh: float = 0.0) -> np.ndarray:
+    """The transfers r(t) (MW) that make L + r as flat as possible within the storage's
+    limits, with sum r = ``transfer_total_mwh`` (0: the store ends as it began)."""
     demand = np.asarray(demand_mw, float)
     if demand.ndim != 1 or demand.size < 2 or not np.all(np.isfinite(demand)):
         raise ValueError("need a finite demand profile of at least two hours")
-    start = water_filling(demand, storage.r_min_mw, storage.r_max_mw)
+    n = demand.size
+    if not n * storage.r_min_mw - 1e-9 <= transfer_total_mwh <= n * storage.r_max_mw + 1e-9:
+        raise ValueError(f"{transfer_total_mwh} MWh cannot be transferred in {n} hours")
+    start = water_filling(demand, storage.r_min_mw, storage.r_max_mw, transfer_total_mwh)
     stored = storage.stored_mwh(start)
     if np.all((stored >= storage.s_min_mwh - 1e-9) & (stored <= storage.s_max_mwh + 1e-9)):
         return start  # the store's bounds do not bind
-    n = demand.size
     lower_triangle = np.tril(np.ones((n, n)))  # S(t) - S(0) = sum of r up to t
-    constraints = [LinearConstraint(np.ones((1, n)), 0.0, 0.0),
+    constraints = [LinearConstraint(np.ones((1, n)), transfer_total_mwh, transfer_total_mwh),
                    LinearConstraint(lower_triangle, storage.s_min_mwh - storage.s_start_mwh,
                                     storage.s_max_mwh - storage.s_start_mwh)]
     # with sum r fixed, sum G^2 differs from sum ((G - mean L) / scale)^2 by constants: the same
-    # minimum, on numbers SLSQP handles well; r = 0 (no transfer) is a feasible start
+    # minimum, on numbers of order one
     mean, scale = demand.mean(), max(float(np.ptp(demand)), 1.0)
     result = minimize(lambda r: float(np.sum(((demand + r - mean) / scale) ** 2)), np.zeros(n),
                       jac=lambda r: 2 * (demand + r - mean) / scale**2, hess=lambda r: np.eye(n) * 2 / scale**2,

@@ -11,7 +11,12 @@ Units: MW, cost units per hour.
 
 from __future__ import annotations
 
+import bisect
+import json
 from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
 
 from hex_control.unit_commitment.commitments import Commitment, cheapest_commitments
 from hex_control.unit_commitment.fleet import Fleet
@@ -29,11 +34,10 @@ class TableRow:
 
 def commitment_class(fleet: Fleet, on) -> tuple[int, ...]:
     """How many units of each kind are on: commitments that differ only in which of several
-    identical units (the same bounds and running cost) are on cost the same and are one."""
+    identical units (the same in every figure) are on are one."""
     kinds = {}
     for unit, state in zip(fleet.units, on):
-        key = (unit.g_min_mw, unit.g_max_mw, unit.a1, unit.a2, unit.a3)
-        kinds[key] = kinds.get(key, 0) + bool(state)
+        kinds[unit] = kinds.get(unit, 0) + bool(state)
     return tuple(kinds.values())
 
 
@@ -84,3 +88,40 @@ def scheduling_table(fleet: Fleet, k: int = 5, step_mw: float = 100.0, resolutio
         if level >= end - 1e-9:
             return rows
         level = min(next_level_mw(fleet, level, step_mw, resolution_mw), end)
+
+
+def candidates_at(rows: list[TableRow], total_mw: float) -> list[tuple[bool, ...]]:
+    """The commitments the table offers for ``total_mw`` between its levels: those of the
+    rows at and above it (cheapest first, each once). The caller dispatches them at the
+    total; one may be unable to generate it (the dispatch says so)."""
+    levels = [row.total_mw for row in rows]
+    if not levels[0] - 1e-9 <= total_mw <= levels[-1] + 1e-9:
+        raise ValueError(f"{total_mw} MW is outside the table's {levels[0]:g}..{levels[-1]:g} MW")
+    j = max(bisect.bisect_right(levels, total_mw) - 1, 0)
+    seen = {}
+    for row in rows[j:j + 2]:
+        for candidate in row.candidates:
+            seen.setdefault(candidate.on, None)
+    return list(seen)
+
+
+def save_table(rows: list[TableRow], path) -> None:
+    """Write the table as JSON: per level its candidates' on-bits ('1' on), levels, costs."""
+    document = {"rows": [{"total_mw": row.total_mw,
+                          "candidates": [{"on": "".join("1" if x else "0" for x in c.on),
+                                          "levels_mw": [round(float(g), 6) for g in c.levels_mw],
+                                          "cost_per_h": c.cost_per_h, "incremental_cost": c.incremental_cost}
+                                         for c in row.candidates]} for row in rows]}
+    Path(path).write_text(json.dumps(document))
+
+
+def load_table(path, fleet: Fleet) -> list[TableRow]:
+    """A table written by :func:`save_table`; ValueError if it is not of ``fleet``."""
+    rows = []
+    for row in json.loads(Path(path).read_text())["rows"]:
+        candidates = [Commitment(tuple(bit == "1" for bit in c["on"]), np.array(c["levels_mw"], float),
+                                 float(c["cost_per_h"]), float(c["incremental_cost"])) for c in row["candidates"]]
+        if any(len(c.on) != len(fleet) for c in candidates):
+            raise ValueError(f"{path} is a table of another fleet than {fleet.name}'s {len(fleet)} units")
+        rows.append(TableRow(float(row["total_mw"]), candidates))
+    return rows

@@ -1,0 +1,250 @@
+"""On-line stochastic scheduling (seed 000 part 2, sections 6-7, Fig. 4-5): the off-line
+plan of the mean day corrected hour by hour for the demand that actually comes.
+
+The demand is L(t) = L_bar(t) (1 + e(t)), with the relative fluctuation e either
+independent and uniform on [-alpha, alpha] (eq. 6.1) or first-order Gauss-Markov (6.2),
+measured as y(t) = e(t) + v(t) (6.3). What is known when:
+
+1. Before hour t the commitment is chosen. The one-step Kalman predictor of
+   :mod:`hex_control.estimation` (eq. 6.6-6.7, with a, W, V identified from a history of
+   measurements, as section 6 says they must be) predicts e(t); the later hours decay
+   towards the mean as a^k. The rest of the day is re-planned for the predicted demand,
+   starting from the plan (r-bar, G-bar) as the paper does: the transfers for the plan's
+   commitments with the store as it is now, returning it to where the day began (eq.
+   4.3); then, at that generation, the commitments among the table's candidates and the
+   plan's, with the starting costs from every unit's hours down now. Its first hour's
+   commitment is taken.
+2. The hour's transfer is set then too, from the same re-plan: the store smooths what is
+   predicted, not what comes (section 6: the prediction lets the store "smooth out the
+   fluctuations between two time intervals"). In hour t the actual demand comes and the
+   committed units follow it at their economic dispatch; only what they cannot generate
+   goes to the store, within its rates; if even that fails, the next candidate is taken
+   (an unplanned start, paid for).
+3. After hour t its measurement y(t) updates the predictor.
+
+For white noise the identified a is near 0, so the prediction is the mean: the same
+algorithm with no foresight (the paper substitutes the current fluctuation for the
+prediction in its random model; for independent noise that is no better than the mean).
+
+If the last hours cannot bring the store back exactly, what is left is settled at the
+day's mean incremental cost, so every day is charged for the energy it served.
+
+Units: MW, MWh, cost units; fluctuations relative (dimensionless).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from hex_control.estimation.gauss_markov import GaussMarkovModel
+from hex_control.estimation.identify import identify
+from hex_control.estimation.kalman import OneStepPredictor
+from hex_control.unit_commitment.day import DayPlan, _step, cheapest_transfers, search_commitments, transfer_bounds
+from hex_control.unit_commitment.dispatch import economic_dispatch
+from hex_control.unit_commitment.fleet import Fleet
+from hex_control.unit_commitment.storage import Storage
+from hex_control.unit_commitment.table import TableRow, candidates_at
+
+
+@dataclass(frozen=True)
+class LoadFluctuation:
+    """The relative demand fluctuation of eq. 6.1 (``uniform``) or 6.2-6.3 (``gauss_markov``),
+    with standard deviation ``relative_std`` either way; ``a`` is the Gauss-Markov
+    coefficient per hour; every hour's measurement has noise of ``measurement_std``."""
+
+    kind: str
+    relative_std: float = 0.0142
+    a: float = 0.8
+    measurement_std: float = 0.002
+
+    def __post_init__(self):
+        if self.kind not in ("uniform", "gauss_markov"):
+            raise ValueError(f"a fluctuation is uniform or gauss_markov, not {self.kind!r}")
+        if not (self.relative_std >= 0 and self.measurement_std >= 0 and abs(self.a) < 1):
+            raise ValueError(f"need standard deviations >= 0 and |a| < 1, got {self}")
+
+    def draw(self, hours: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """(e(t), y(t)) for ``hours`` consecutive hours."""
+        if self.kind == "uniform":
+            alpha = math.sqrt(3.0) * self.relative_std  # uniform on [-alpha, alpha] has std alpha / sqrt 3
+            fluctuation = rng.uniform(-alpha, alpha, hours)
+        else:
+            model = GaussMarkovModel(self.a, self.relative_std**2 * (1 - self.a**2), 0.0)
+            fluctuation, _ = model.simulate(hours, rng)
+        return fluctuation, fluctuation + rng.normal(0.0, self.measurement_std, hours)
+
+
+@dataclass(frozen=True)
+class OnlineDay:
+    commitments: list[tuple[bool, ...]]
+    demand_mw: np.ndarray  # what came
+    transfers_mw: np.ndarray
+    running_cost: float
+    starting_cost: float
+    settlement_cost: float  # of the store's energy not brought back (-: a credit for energy left in it)
+    unplanned: int  # hours whose chosen commitment could not meet the demand
+
+    @property
+    def total_cost(self) -> float:
+        return self.running_cost + self.starting_cost + self.settlement_cost
+
+    @property
+    def unit_cost(self) -> float:
+        """Cost per MWh served (section 7's unit generation cost)."""
+        return self.total_cost / float(np.sum(self.demand_mw))
+
+
+class OnlineScheduler:
+    """Runs days of actual demand against the plan of the mean day (see the module)."""
+
+    def __init__(self, fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
+                 predictor: OneStepPredictor):
+        self.fleet, self.table, self.plan, self.storage, self.predictor = fleet, table, plan, storage, predictor
+        self.down = tuple(0 for _ in fleet.units)  # every unit's hours down
+        self.stored_mwh = storage.s_start_mwh
+
+    def _store_now(self) -> Storage:
+        return replace(self.storage, s_start_mwh=min(max(self.stored_mwh, self.storage.s_min_mwh),
+                                                     self.storage.s_max_mwh))
+
+    def _transfers(self, commitments, demand) -> np.ndarray:
+        """The cheapest transfers of the rest of the day; as near to returning the store to
+        its start as the commitments allow."""
+        store = self._store_now()
+        lower, upper = transfer_bounds(self.fleet, commitments, demand, store)
+        owed = float(np.clip(self.storage.s_start_mwh - self.stored_mwh, lower.sum(), upper.sum()))
+        return cheapest_transfers(self.fleet, commitments, demand, store, owed)
+
+    def _running(self, on, total_mw) -> float:
+        try:
+            return economic_dispatch([u for u, x in zip(self.fleet.units, on) if x], total_mw).cost_per_h
+        except ValueError:
+            return math.inf
+
+    def _options(self, generation_mw: float, *extra) -> list[tuple[bool, ...]]:
+        levels = self.table[0].total_mw, self.table[-1].total_mw
+        options = candidates_at(self.table, float(np.clip(generation_mw, *levels)))
+        return options + [on for on in dict.fromkeys(extra) if on not in options]
+
+    def _ranked(self, t: int, predicted_mw: np.ndarray, previous):
+        """(hour t's candidates, best first; the commitments of the later hours).
+
+        The rest of the day is re-planned for the prediction: the transfers for the plan's
+        commitments, then the commitments from the table's candidates there (with the
+        plan's, and for this hour the last one's) by dynamic programming from every unit's
+        hours down now. That one's first hour comes first; the other candidates follow by
+        running plus starting cost."""
+        planned = self.plan.schedule.commitments
+        try:
+            generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
+        except ValueError:  # the plan cannot meet the prediction: take the store's plan
+            generation = predicted_mw[t:] + self.plan.transfers_mw[t:]
+        options = [self._options(g, planned[t + k], *((previous,) if k == 0 else ()))
+                   for k, g in enumerate(generation)]
+        later = list(planned[t + 1:])
+        ranked = []
+        try:
+            replanned = search_commitments(self.fleet, generation, lambda k: options[k], self.down)
+            ranked, later = [replanned.commitments[0]], replanned.commitments[1:]
+        except ValueError:
+            pass
+
+        def score(on):
+            return self._running(on, generation[0]) + _step(self.fleet, self.down, on)[1]
+
+        rest = sorted((on for on in options[0] if on not in ranked), key=score)
+        return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
+
+    def run_day(self, fluctuation, measurement) -> OnlineDay:
+        """One day: ``fluctuation`` e(t) and its ``measurement`` y(t), relative, per hour."""
+        mean = self.plan.demand_mw
+        fluctuation, measurement = np.asarray(fluctuation, float), np.asarray(measurement, float)
+        if fluctuation.shape != mean.shape or measurement.shape != mean.shape:
+            raise ValueError(f"need {mean.size} hours of fluctuation and measurement")
+        hours = mean.size
+        a = self.predictor.model.a
+        demand = mean * (1 + fluctuation)
+        self.down = tuple(0 for _ in self.fleet.units)  # each day starts as the plan's: every unit on
+        commitments, transfers = [], np.zeros(hours)
+        running = starting = 0.0
+        unplanned = 0
+        for t in range(hours):
+            expected = self.predictor.prediction - self.predictor.mean
+            predicted = mean[t:] * (1 + self.predictor.mean + expected * a ** np.arange(hours - t))
+            predicted = np.concatenate([mean[:t], predicted])
+            previous = commitments[-1] if commitments else (True,) * len(self.fleet)
+            ranked, later = self._ranked(t, predicted, previous)
+            for rank, on in enumerate(ranked):
+                try:  # the transfer is set for the prediction; the store covers only what the units cannot
+                    r = self._transfers([on] + later, predicted[t:])[0]
+                    lower, upper = transfer_bounds(self.fleet, [on], demand[t:t + 1], self._store_now())
+                    r = float(np.clip(r, lower[0], upper[0]))
+                except ValueError:
+                    continue
+                cost = self._running(on, demand[t] + r)
+                if math.isfinite(cost):
+                    break
+            else:
+                raise ValueError(f"hour {t}: {demand[t]:.0f} MW is beyond every commitment")
+            unplanned += rank > 0
+            self.down, start = _step(self.fleet, self.down, on)
+            running, starting = running + cost, starting + start
+            commitments.append(on)
+            transfers[t] = r
+            self.stored_mwh += r
+            self.predictor.step(float(measurement[t]))
+        left_in_store = self.stored_mwh - self.storage.s_start_mwh
+        lam = np.mean([economic_dispatch([u for u, x in zip(self.fleet.units, on) if x], g).incremental_cost
+                       for on, g in zip(commitments, demand + transfers)])
+        self.stored_mwh = self.storage.s_start_mwh  # settled
+        return OnlineDay(commitments, demand, transfers, running, starting, -left_in_store * lam, int(unplanned))
+
+
+def identified_predictor(fluctuation: LoadFluctuation, history_hours: int, rng: np.random.Generator):
+    """The predictor section 6 asks for: a, W, V identified from ``history_hours`` of
+    measurements (the paper used 80 days), then filtered through that history."""
+    _, history = fluctuation.draw(history_hours, rng)
+    found = identify(history)
+    predictor = OneStepPredictor(found.model, found.mean)
+    predictor.warm_start(history)
+    return predictor, found
+
+
+@dataclass(frozen=True)
+class OnlineComparison:
+    """Per simulated day, the on-line unit cost's increase (relative) over the deterministic
+    cost: that of the mean day's plan (the paper's measure) and that of the day's own
+    demand known in advance (hindsight: the same table algorithm off-line)."""
+
+    fluctuation: LoadFluctuation
+    over_plan: np.ndarray
+    over_hindsight: np.ndarray
+    unplanned_hours: int
+    identified: GaussMarkovModel
+
+
+def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
+                   fluctuation: LoadFluctuation, days: int, rng: np.random.Generator, history_days: int = 80,
+                   progress=None) -> OnlineComparison:
+    """``days`` consecutive days of demand (one fluctuation process), each scheduled on-line;
+    ``progress(day, days)`` after each."""
+    from hex_control.unit_commitment.day import deterministic_schedule
+
+    predictor, found = identified_predictor(fluctuation, history_days * plan.demand_mw.size, rng)
+    scheduler = OnlineScheduler(fleet, table, plan, storage, predictor)
+    hours = plan.demand_mw.size
+    fluctuations, measurements = fluctuation.draw(days * hours, rng)
+    over_plan, over_hindsight, unplanned = [], [], 0
+    for day in range(days):
+        hourly = slice(day * hours, (day + 1) * hours)
+        result = scheduler.run_day(fluctuations[hourly], measurements[hourly])
+        hindsight = deterministic_schedule(fleet, result.demand_mw, storage, table, also=plan.schedule.commitments)
+        over_plan.append(result.unit_cost / plan.unit_cost - 1)
+        over_hindsight.append(result.unit_cost / hindsight.unit_cost - 1)
+        unplanned += result.unplanned
+        if progress:
+            progress(day + 1, days)
+    return OnlineComparison(fluctuation, np.array(over_plan), np.array(over_hindsight), unplanned, found.model)
