@@ -104,6 +104,26 @@ def _parser() -> argparse.ArgumentParser:
     shaper_plot.add_argument("--mode", type=float, default=None, help="mode frequency of the step responses (Hz)")
     shaper_plot.add_argument("--output", default="output/shaper")
 
+    commitment = commands.add_parser("unit-commitment", help="seed 000 part 2: scheduling table, off-line day, "
+                                     "on-line stochastic scheduling of a power system (PNG, JSON)")
+    commitment_verbs = commitment.add_subparsers(dest="verb", required=True)
+    for verb, text in (("table", "build the scheduling table (section 4)"),
+                       ("day", "schedule the example day off-line (sections 3, 5)"),
+                       ("online", "schedule days of random demand on-line, both load models (sections 6, 7)")):
+        job = commitment_verbs.add_parser(verb, help=text)
+        job.add_argument("--fleet", default="fleet_41.yaml", help="fleet file (config/unit_commitment/ or a path)")
+        job.add_argument("--k", type=int, default=5, help="candidates per level")
+        job.add_argument("--step", type=float, default=100.0, help="nominal level step of rule 4.1 (MW)")
+        job.add_argument("--output", default="output/unit_commitment")
+        if verb == "day":
+            job.add_argument("--milp", action="store_true", help="also solve the day as a MILP (the peer)")
+        if verb == "online":
+            job.add_argument("--days", type=int, default=40, help="simulated days per load model")
+            job.add_argument("--history-days", type=int, default=80, help="days measured to identify a, W, V")
+            job.add_argument("--std", type=float, default=0.0142, help="relative std of the fluctuation")
+            job.add_argument("--a", type=float, default=0.8, help="Gauss-Markov coefficient per hour")
+            job.add_argument("--seed", type=int, default=0)
+
     bench = commands.add_parser("bench", help="run benchmarks (ratios against in-process baselines)")
     bench.add_argument("cases", nargs="*", help="case names (default: all)")
     bench.add_argument("--quick", action="store_true", help="small sizes, for a smoke run")
@@ -330,6 +350,38 @@ def _exit_on_sigterm(signum, frame):
     raise SystemExit(128 + signum)
 
 
+def _unit_commitment(args) -> int:
+    from hex_control.unit_commitment import report
+
+    if args.verb == "table":
+        summary = report.build_table(args.fleet, args.output, args.k, args.step)
+        built = "read from the output folder" if summary["build_s"] is None else f"built in {summary['build_s']:.1f} s"
+        print(f"{summary['fleet']}: {summary['levels']} levels {summary['levels_mw'][0]:g}..{summary['levels_mw'][1]:g}"
+              f" MW, {args.k} candidates each, {built}; wrote {args.output}/table_{summary['fleet']}.png")
+    elif args.verb == "day":
+        summary = report.schedule_day(args.fleet, args.output, args.k, args.step, args.milp)
+        print(f"{summary['fleet']}: daily cost {summary['cost']:,.1f} (running {summary['running_cost']:,.1f}, "
+              f"starting {summary['starting_cost']:,.1f}), {summary['unit_cost_per_mwh']:.4f} per MWh, "
+              f"scheduled in {summary['schedule_s']:.2f} s")
+        if "milp" in summary:
+            peer = summary["milp"]
+            print(f"MILP: {peer['cost']:,.1f} (lower bound {peer['lower_bound']:,.1f}) in {peer['solve_s']:.1f} s; "
+                  f"the table algorithm is {100 * peer['table_over_lower_bound']:.3f} % above the lower bound")
+        print(f"wrote {args.output}/day_{summary['fleet']}.png")
+    else:
+        summary = report.run_online(args.fleet, args.output, args.days, args.history_days, args.std, args.a,
+                                    args.seed, args.k, args.step)
+        print(f"{summary['fleet']}: unit cost increase over {args.days} days, fluctuation {100 * args.std:.2f} % std "
+              "(mean ± standard error)")
+        for kind, result in summary["models"].items():
+            hindsight, plan = result["over_hindsight"], result["over_plan"]
+            print(f"  {kind:13s} over hindsight {hindsight['mean_percent']:+.4f} ± "
+                  f"{hindsight['standard_error_percent']:.4f} %, over the mean day's plan {plan['mean_percent']:+.4f}"
+                  f" ± {plan['standard_error_percent']:.4f} %  (identified a = {result['identified_a']:.2f})")
+        print(f"wrote {args.output}/online_{summary['fleet']}.png")
+    return 0
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
@@ -356,6 +408,8 @@ def main(argv=None) -> int:
             return _shaper(args)
         if args.command == "pass":
             return _pass(args)
+        if args.command == "unit-commitment":
+            return _unit_commitment(args)
         if args.command == "bench":
             from hex_control.bench import run_benchmarks
 

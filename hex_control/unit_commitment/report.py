@@ -1,0 +1,101 @@
+"""The three jobs of ``hexctl unit-commitment``: build a fleet's scheduling table, schedule
+its example day off-line (against the MILP peer if asked), and run it on-line under both
+load models. Each writes its PNG and a summary JSON into the output folder and returns
+the summary; the table is kept there and reused (it depends only on the fleet, K and the
+step).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from hex_control.unit_commitment.day import deterministic_schedule
+from hex_control.unit_commitment.demand import example_day
+from hex_control.unit_commitment.fleet import Fleet
+from hex_control.unit_commitment.online import LoadFluctuation, compare_online
+from hex_control.unit_commitment.plots import plot_day, plot_online, plot_table
+from hex_control.unit_commitment.table import load_table, save_table, scheduling_table
+
+
+def table_for(fleet: Fleet, output: Path, k: int, step_mw: float) -> tuple[list, float | None]:
+    """(the table, seconds it took to build; None if it was read from the output folder)."""
+    path = output / f"table_{fleet.name}_k{k}_step{step_mw:g}.json"
+    if path.is_file():
+        return load_table(path, fleet), None
+    top = fleet.capacity_mw[1]
+    start = time.perf_counter()
+    with tqdm(total=round(top), desc=f"table {fleet.name}", unit="MW") as bar:
+        rows = scheduling_table(fleet, k=k, step_mw=step_mw, progress=lambda level, end: bar.update(
+            round(level) - bar.n))
+    seconds = time.perf_counter() - start
+    output.mkdir(parents=True, exist_ok=True)
+    save_table(rows, path)
+    return rows, seconds
+
+
+def build_table(fleet_file: str, output, k: int = 5, step_mw: float = 100.0) -> dict:
+    fleet, output = Fleet.from_yaml(fleet_file), Path(output)
+    rows, seconds = table_for(fleet, output, k, step_mw)
+    plot_table(output / f"table_{fleet.name}.png", fleet, rows)
+    summary = {"fleet": fleet.name, "units": len(fleet), "levels": len(rows), "k": k, "step_mw": step_mw,
+               "build_s": seconds, "levels_mw": [rows[0].total_mw, rows[-1].total_mw]}
+    (output / f"table_{fleet.name}.summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, milp: bool = False) -> dict:
+    fleet, output = Fleet.from_yaml(fleet_file), Path(output)
+    rows, _ = table_for(fleet, output, k, step_mw)
+    day = example_day(fleet)
+    start = time.perf_counter()
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, rows)
+    seconds = time.perf_counter() - start
+    plot_day(output / f"day_{fleet.name}.png", fleet, plan.demand_mw, plan.transfers_mw, plan.schedule.commitments,
+             f"Off-line schedule of {fleet.name}: cost {plan.total_cost:,.0f} "
+             f"(starts {plan.schedule.starting_cost:,.0f})")
+    summary = {"fleet": fleet.name, "cost": plan.total_cost, "running_cost": plan.schedule.running_cost,
+               "starting_cost": plan.schedule.starting_cost, "unit_cost_per_mwh": plan.unit_cost,
+               "schedule_s": seconds, "rounds": plan.rounds,
+               "generation_mw": plan.generation_mw.round(1).tolist(), "transfers_mw": plan.transfers_mw.round(1).tolist(),
+               "units_on": [int(sum(on)) for on in plan.schedule.commitments]}
+    if milp:
+        from hex_control.unit_commitment.milp import milp_schedule
+
+        start = time.perf_counter()
+        peer = milp_schedule(fleet, day.demand_mw, day.storage, mip_rel_gap=1e-3)
+        summary["milp"] = {"cost": peer.plan.total_cost, "lower_bound": peer.lower_bound, "gap": peer.gap,
+                           "solve_s": time.perf_counter() - start, "status": peer.status,
+                           "table_over_lower_bound": plan.total_cost / peer.lower_bound - 1}
+    (output / f"day_{fleet.name}.summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, relative_std: float = 0.0142,
+               a: float = 0.8, seed: int = 0, k: int = 5, step_mw: float = 100.0) -> dict:
+    fleet, output = Fleet.from_yaml(fleet_file), Path(output)
+    rows, _ = table_for(fleet, output, k, step_mw)
+    day = example_day(fleet)
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, rows)
+    comparisons = []
+    summary = {"fleet": fleet.name, "days": days, "history_days": history_days, "relative_std": relative_std,
+               "deterministic_unit_cost": plan.unit_cost, "models": {}}
+    for kind in ("uniform", "gauss_markov"):
+        fluctuation = LoadFluctuation(kind, relative_std, a)
+        with tqdm(total=days, desc=f"on-line {kind}", unit="day") as bar:
+            comparison = compare_online(fleet, rows, plan, day.storage, fluctuation, days, np.random.default_rng(seed),
+                                        history_days, progress=lambda done, total: bar.update(done - bar.n))
+        comparisons.append(comparison)
+        summary["models"][kind] = {
+            name: {"mean_percent": 100 * float(values.mean()),
+                   "standard_error_percent": 100 * float(values.std(ddof=1) / np.sqrt(values.size))}
+            for name, values in (("over_hindsight", comparison.over_hindsight), ("over_plan", comparison.over_plan))}
+        summary["models"][kind]["unplanned_hours"] = comparison.unplanned_hours
+        summary["models"][kind]["identified_a"] = comparison.identified.a
+    plot_online(output / f"online_{fleet.name}.png", comparisons)
+    (output / f"online_{fleet.name}.summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
