@@ -32,6 +32,8 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
                       "another host, e.g. 'ip netns exec hexA' (scripts/two_hosts.sh)")
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
+    demo.add_argument("--namespace", default="", help="run the cell under this namespace, e.g. /cell2 (one "
+                      "namespace holds one cell; cells side by side in a domain do not meet)")
 
     predictor = commands.add_parser("demo-load-predictor", help="the Kalman load predictor alone over ROS 2")
     predictor.add_argument("--output", default="output/load_predictor", help="report directory")
@@ -393,7 +395,7 @@ def main(argv=None) -> int:
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
                             args.bead_length, args.bead_height, args.dulling,
                             args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine],
-                            args.restart_planner_after)
+                            args.restart_planner_after, args.namespace)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import yaml
+
 
 def config_file(name: str) -> Path:
     """Path of ``config/<name>``: the installed share directory, else the source tree."""
@@ -22,3 +24,14 @@ def config_file(name: str) -> Path:
     if not source.is_file():
         raise FileNotFoundError(f"no configuration file {name!r} (looked in the install and {source.parent})")
     return source
+
+
+def node_parameters(file_name: str, node: str) -> dict:
+    """The ``ros__parameters`` of ``node`` (e.g. ``force_controller``, ``load_predictor/pass``)
+    in a shipped parameter file, whose sections are written ``/**/<node>`` so that they
+    apply in any namespace."""
+    document = yaml.safe_load(config_file(file_name).read_text())
+    key = f"/**/{node.strip('/')}"
+    if key not in document:
+        raise ValueError(f"{file_name} has no section {key}")
+    return document[key]["ros__parameters"]

@@ -19,10 +19,9 @@ import dataclasses
 import math
 
 import numpy as np
-import yaml
 from scipy.optimize import brentq
 
-from hex_control.config import config_file
+from hex_control.config import config_file, node_parameters
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.grinding.coefficients import PassModelUpdate
@@ -30,7 +29,7 @@ from hex_control.grinding.config import load_planner_config
 from hex_control.grinding.sdp import solve
 
 # the pass-rate instance as config/load_predictor.yaml sets it
-PASS = yaml.safe_load(config_file("load_predictor.yaml").read_text())["/load_predictor/pass"]["ros__parameters"]
+PASS = node_parameters("load_predictor.yaml", "load_predictor/pass")
 PASS_MODEL = GaussMarkovModel(PASS["a"], PASS["process_variance"], PASS["measurement_variance"])
 SCATTER = math.sqrt(math.log1p(0.15 ** 2))
 PREDICTORS = {"seed 000": lambda: OneStepPredictor(PASS_MODEL, PASS["mean"]),

@@ -5,7 +5,7 @@ import math
 
 import yaml
 
-from hex_control.config import config_file
+from hex_control.config import config_file, node_parameters
 from hex_control.grinding.config import cell_value, load_cell, load_pass_planner_config, load_planner_config
 from hex_control.plant.force_table import ForceTableParameters
 
@@ -43,8 +43,8 @@ def test_every_node_reads_the_cells_values():
     # the plant's force table and the pass predictor take theirs from the cell (nodes/plant.py,
     # load_predictor.yaml's mean_from_cell); its dataclass defaults agree with the cell
     assert ForceTableParameters().rotational_stiffness_n_mm_rad == disk.spring_n_mm_rad
-    predictor = yaml.safe_load(config_file("load_predictor.yaml").read_text())["/load_predictor/pass"]
-    assert cell_value(predictor["ros__parameters"]["mean_from_cell"]) == process.specific_energy_j_mm3
+    predictor = node_parameters("load_predictor.yaml", "load_predictor/pass")
+    assert cell_value(predictor["mean_from_cell"]) == process.specific_energy_j_mm3
     # the force controller's ceiling is a setting of its own that starts at the cell's F_max
     from hex_control.nodes.force_controller import PARAMETERS
 

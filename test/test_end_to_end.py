@@ -218,3 +218,34 @@ def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tm
     # pass 0 ended with a result; in real time a starved loop may abort it (force commands late
     # with two CPU burners and another graph before it): the machine does not wait, by design
     assert session.record.results[0]["status"] in ("completed", "aborted"), session.record.results[0]
+
+
+def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossing(ros_env, tmp_path):
+    """Issue 23 item 1: every name in the graph is relative, so /cell1 and /cell2 each hold
+    a whole cell (sim clock included) in one domain. Both jobs end; neither observer saw a
+    message of the other's job; no topic of the graph exists outside the two namespaces."""
+    import threading
+
+    sessions = [JobSession(tmp_path / f"cell{k}", seed=k, plant_overrides=STEADY, namespace=f"/cell{k}")
+                for k in (1, 2)]
+    outcomes = {}
+    with sessions[0], sessions[1]:
+        for session in sessions:
+            session.start_job(18.0, RESET_TIME_S, job_id=f"cell{session.seed}-job")
+        # each session spins its own context: the two jobs run at once
+        threads = [threading.Thread(target=lambda s=s: outcomes.update({s.seed: s.wait_for_outcome(600.0)}))
+                   for s in sessions]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        topics = [name for name, _ in sessions[0].observer.get_topic_names_and_types()]
+    for session in sessions:
+        assert_passes_as_planned(session.record, outcomes[session.seed])
+        assert_consistent(session.record, outcomes[session.seed])
+        assert session.observer.foreign_messages == 0
+    outside = [t for t in topics if not t.startswith(("/cell1/", "/cell2/"))]
+    assert set(outside) <= {"/rosout", "/parameter_events", "/diagnostics"}, outside  # ROS's own, shared
+    for k in (1, 2):
+        assert {f"/cell{k}/plant/wrench", f"/cell{k}/grinding/pass_result", f"/cell{k}/clock"} <= set(topics)
+    assert "/clock" not in topics and "/plant/wrench" not in topics

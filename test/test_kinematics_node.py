@@ -112,11 +112,11 @@ def test_a_long_workspace_request_does_not_block_the_other_services(ros, client)
 
 
 def test_setpoint_stream_commands_struts_and_refuses_bad_poses(ros, kinematics_process):
-    commands = ros.collect(JointState, "/plant/strut_command", publishers=1)
+    commands = ros.collect(JointState, "/kin/plant/strut_command", publishers=1)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
     node = ros.node("setpoints")
-    publisher = node.create_publisher(PoseStamped, "/motion/setpoint", 10)
-    ros.wait_for_match(node, "/motion/setpoint", subscribers=1)
+    publisher = node.create_publisher(PoseStamped, "/kin/motion/setpoint", 10)
+    ros.wait_for_match(node, "/kin/motion/setpoint", subscribers=1)
 
     def setpoint(x_m, y_m, z_m, rpy=(0.0, 0.0, 0.0), quaternion=None):
         msg = PoseStamped()
@@ -191,9 +191,9 @@ def test_a_tool_path_becomes_one_strut_trajectory_or_is_refused_whole(ros, kinem
     from hex_control_msgs.msg import ToolPath
 
     node = ros.node("path_source")
-    publisher = node.create_publisher(ToolPath, "/motion/tool_path", LATCHED)
-    trajectories = ros.collect(JointTrajectory, "/plant/strut_trajectory", LATCHED, publishers=1)
-    ros.wait_for_match(node, "/motion/tool_path", subscribers=1)
+    publisher = node.create_publisher(ToolPath, "/kin/motion/tool_path", LATCHED)
+    trajectories = ros.collect(JointTrajectory, "/kin/plant/strut_trajectory", LATCHED, publishers=1)
+    ros.wait_for_match(node, "/kin/motion/tool_path", subscribers=1)
     poses = np.column_stack([np.linspace(-50, 50, 400), np.zeros(400), np.full(400, -2100.0),
                              np.full(400, 0.02), np.zeros(400), np.zeros(400)])
 

@@ -7,15 +7,14 @@ import math
 
 import numpy as np
 import pytest
-import yaml
 
-from hex_control.config import config_file
+from hex_control.config import node_parameters
 from hex_control.control.force_law import PIForceLaw, roll_off_filter
 from hex_control.control.pi import TustinPI
 from hex_control.control.touch_down import TouchDown
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
 
-SHIPPED = yaml.safe_load(config_file("force_controller.yaml").read_text())["force_controller"]["ros__parameters"]
+SHIPPED = node_parameters("force_controller.yaml", "force_controller")
 PERIOD_S = 1.0 / SHIPPED["rate_hz"]  # 5 ms
 RETRACTED_MM = SHIPPED["output_min_mm"]  # -2 mm
 

@@ -77,7 +77,7 @@ class Diagnostics(Health):
     def _check_clock(self) -> None:
         if not self._node.get_parameter("use_sim_time").value:
             return
-        if self._node.count_publishers("/clock") == 0:
+        if self._node.count_publishers("clock") == 0:
             self.fault("clock", "no /clock publisher: sim time stands still", ERROR)
         else:
             self.clear("clock")

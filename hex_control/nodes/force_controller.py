@@ -115,6 +115,8 @@ PARAMETERS = {
 
 
 class ForceControllerNode(Node):
+    READY_PARAMETERS = ("law", "trigger", "rate_hz")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("force_controller", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -138,15 +140,15 @@ class ForceControllerNode(Node):
         self.tripped = True  # start retracted; only a loss of inputs while tracking is a trip
         self.saturated_s = 0.0  # how long the command has been held at a limit while tracking
         self.stamps = StampGuard(round(p("max_stamp_step_s") * 1e9))
-        self.publisher = self.create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
+        self.publisher = self.create_publisher(ForceAxisCommand, "plant/force_axis_command", 10)
         self.answer = None  # the last command sent (ForceAxisCommand)
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         # latched: a controller that matches the pass planner late still gets the pass it must run
-        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED)
         info_subscription(self, Float64, "~/setpoint", self._on_setpoint, 10, self.diagnostics, "setpoint")
-        info_subscription(self, WrenchStamped, "/plant/wrench", self._on_wrench, 100, self.diagnostics,
+        info_subscription(self, WrenchStamped, "plant/wrench", self._on_wrench, 100, self.diagnostics,
                           "measurement")
-        self.create_subscription(LoadPrediction, "/load_predictor/force/prediction", self._on_prediction, 10)
+        self.create_subscription(LoadPrediction, "load_predictor/force/prediction", self._on_prediction, 10)
         self.measurement_triggered = p("trigger") == "measurement"
         if not self.measurement_triggered:
             self.create_timer(self.period_s, lambda: self._tick(self.get_clock().now()))

@@ -12,6 +12,7 @@ The same command lines work with the console scripts (``hex-plant`` ...) or
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -19,9 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
-from hex_control.config import config_file
+from hex_control.config import config_file, node_parameters
 
 SIM_TIME = ["-p", "use_sim_time:=true"]  # only where a node reads the clock: the rest run on stamps and wall timers
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
@@ -29,8 +28,8 @@ MACHINE_SIDE = ("plant", "kinematics", "input_shaper", "force_controller")
 #: (topic, publishing node, subscribing node) of the volatile streams a pass runs on: a
 #: sample sent before its edge has matched is lost, so a job starts once all are there. A
 #: pass's tool path and trajectories are latched (handed over whole), so they need no wait.
-STREAM_EDGES = (("/plant/wrench", "plant", "force_controller"),
-                ("/plant/force_axis_command", "force_controller", "plant"))
+STREAM_EDGES = (("plant/wrench", "plant", "force_controller"),
+                ("plant/force_axis_command", "force_controller", "plant"))
 
 
 def missing_stream_edges(node) -> list[str]:
@@ -57,12 +56,17 @@ class NodeSpec:
 
 
 def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_overrides: dict | None = None,
-                machine_file: str | None = None, real_time_factor: float = 1.0) -> list[NodeSpec]:
+                machine_file: str | None = None, real_time_factor: float = 1.0, namespace: str = "") -> list[NodeSpec]:
     """The grinding hierarchy with the shipped configuration: plant (``mode``, process
     variation seeded by ``seed``), kinematics, input shaper, force controller (answering
     every measurement), pass planner, sequence planner (job log in ``job_dir``), the
     pass-rate load predictor and, when the force controller feeds its prediction forward
-    (``feed_forward_mm_per_n`` > 0), the control-rate one."""
+    (``feed_forward_mm_per_n`` > 0), the control-rate one.
+
+    Every name in the graph is relative, so a ``namespace`` (e.g. ``/cell2``) holds one
+    whole cell, its sim clock included (``/cell2/clock``: /clock remapped to the
+    namespace's), beside others in the same domain."""
+    namespace = validated_namespace(namespace)
     machine = ["-p", f"machine_file:={machine_file}"] if machine_file else []
     plant = ["--params-file", str(config_file("plant.yaml")), "-p", f"mode:={mode}", "-p", f"seed:={seed}",
              "-p", f"real_time_factor:={float(real_time_factor)}", *machine]
@@ -79,13 +83,24 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
         NodeSpec("pass_planner", "pass_planner", (*SIM_TIME, *machine)),
         NodeSpec("sequence_planner", "sequence_planner", ("-p", f"job_dir:={job_dir}")),
         NodeSpec("load_predictor_pass", "load_predictor",
-                 ("-r", "__ns:=/load_predictor", "-r", "__node:=pass", "--params-file", predictors)),
+                 ("-r", f"__ns:={namespace}/load_predictor", "-r", "__node:=pass", "--params-file", predictors)),
     ]
-    parameters = yaml.safe_load(controller.read_text())["force_controller"]["ros__parameters"]
-    if parameters.get("feed_forward_mm_per_n", 0.0):  # a control-rate prediction nobody uses costs 200 Hz
+    if node_parameters("force_controller.yaml", "force_controller").get("feed_forward_mm_per_n", 0.0):
+        # a control-rate prediction nobody uses costs 200 Hz
         nodes.append(NodeSpec("load_predictor_force", "load_predictor",
-                              ("-r", "__ns:=/load_predictor", "-r", "__node:=force", "--params-file", predictors)))
-    return nodes
+                              ("-r", f"__ns:={namespace}/load_predictor", "-r", "__node:=force", "--params-file",
+                               predictors)))
+    cell = ("-r", "/clock:=clock") + (("-r", f"__ns:={namespace}") if namespace else ())
+    # the predictors' own __ns comes after the cell's and wins
+    return [NodeSpec(n.name, n.module, cell + n.arguments) for n in nodes]
+
+
+def validated_namespace(namespace: str) -> str:
+    """``namespace`` as ROS writes it (``/cell1``, or '' for the root); ValueError if it is not one."""
+    namespace = namespace.rstrip("/")
+    if namespace and not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", namespace):
+        raise ValueError(f"{namespace!r} is not a namespace: /name[/name...], letters, digits and _")
+    return namespace
 
 
 def stop_hung(process: subprocess.Popen, timeout_s: float) -> int:

@@ -11,6 +11,7 @@ Exit code 0 only if the job ended as the policy intended (done, or Quit Now).
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from hex_control.config import config_file
+from hex_control.config import config_file, node_parameters
 from hex_control.grinding.job import unfinished_logs
 from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
@@ -39,20 +40,21 @@ class JobObserver(Node):
     def __init__(self, record: JobRecord, **kwargs):
         super().__init__("grind_job", **kwargs)
         self.record = record
-        self.client = ActionClient(self, GrindBead, "/sequence_planner/grind_bead")
-        self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
-        self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
+        self.client = ActionClient(self, GrindBead, "sequence_planner/grind_bead")
+        self.create_subscription(ContourMsg, "grinding/contour", self._on_contour, LATCHED)
+        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, LATCHED)
         # the planner's feedback carries every command too, kept for late joiners: a command
         # topic holds only its last, which a restarted planner may have replaced before it matched
-        self.create_subscription(GrindBead.Feedback, "/sequence_planner/job_feedback",
+        self.create_subscription(GrindBead.Feedback, "sequence_planner/job_feedback",
                                  lambda feedback: self._on_command(feedback.command), RESULTS)
-        self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
-        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
-        self.create_subscription(PlantTelemetry, "/plant/telemetry", self._on_telemetry, TELEMETRY)
-        self.create_subscription(GrindBead.Result, "/sequence_planner/job_result", self._on_job_result, LATCHED)
-        self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_k1, STREAM)
+        self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
+        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
+        self.create_subscription(GrindBead.Result, "sequence_planner/job_result", self._on_job_result, LATCHED)
+        self.create_subscription(LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM)
         self.job_id = None
         self.job_result = None
+        self.foreign_messages = 0
 
     def destroy_node(self) -> None:
         # rclpy's destroy_node leaves waitables: the action client would keep the node and its
@@ -62,7 +64,10 @@ class JobObserver(Node):
         super().destroy_node()
 
     def _mine(self, job_id: str) -> bool:
-        return self.job_id is not None and job_id == self.job_id
+        mine = self.job_id is not None and job_id == self.job_id
+        if job_id and self.job_id is not None and not mine:
+            self.foreign_messages += 1  # another job's: an earlier one's latched, or another cell's
+        return mine
 
     def _on_contour(self, msg: ContourMsg) -> None:
         if msg.pass_index == 0 and not msg.job_id or self._mine(msg.job_id):
@@ -167,10 +172,11 @@ class JobSession:
     (the fault tests kill and restart nodes in between, through ``graph``)."""
 
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
-                 plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None):
+                 plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None,
+                 namespace: str = ""):
         self.output = Path(output)
         self.graph = NodeGraph(graph_nodes(fresh_job_dir(self.output), seed, mode, plant_overrides, machine_file,
-                                           real_time_factor), self.output / "logs", placement=placement)
+                                           real_time_factor, namespace), self.output / "logs", placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
@@ -178,7 +184,7 @@ class JobSession:
         # the SystemExit that `hexctl demo` raises on SIGTERM to stop the graph (a CI run exited 1, not 143)
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
         self.executor = SingleThreadedExecutor(context=self.context)
-        self.observer = JobObserver(self.record, context=self.context)
+        self.observer = JobObserver(self.record, context=self.context, namespace=namespace or "/")
         self.executor.add_node(self.observer)
         self.result_future = None
 
@@ -287,11 +293,13 @@ REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
             timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
-            machine_file: str | None = None, restart_planner_after: int | None = None) -> JobRecord:
+            machine_file: str | None = None, restart_planner_after: int | None = None,
+            namespace: str = "") -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
     ``restart_planner_after`` k: kill the sequence planner (SIGKILL) once pass k has ended
     and start it again -- it resumes from its job log."""
-    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file) as session:
+    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file,
+                    namespace) as session:
         session.start_job(deadline_s, reset_time_s)
         if not quiet:
             bead, width = session.record.contours[0]
@@ -351,7 +359,7 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
     from hex_control.plant.reset_time import measure_reset_time
     from hex_control.shaping.shapers import design
 
-    plant = yaml.safe_load(config_file("plant.yaml").read_text())["plant"]["ros__parameters"]
+    plant = node_parameters("plant.yaml", "plant")
     parameters = MachineParameters(**{k: plant[k] for k in ("servo_frequency_hz", "servo_damping",
                                                               "mode_frequency_hz", "mode_damping")})
     machine, document = load_machine(config_file(machine_file))
@@ -363,16 +371,29 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
             for name, s in (("unshaped", None), ("zvd", shaper))}
 
 
+def private_domain_id() -> int:
+    """A ROS domain for one run, 1..101 (the ids whose ports never clash with the
+    ephemeral range), from the process id: two demos started side by side differ."""
+    return 1 + os.getpid() % 101
+
+
 def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
              bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
              machine_host: list[str] | None = None, machine_peers: str = "",
-             machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None) -> int:
+             machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None,
+             namespace: str = "") -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
-    the statistics. 0 only if every job ended as its policy intended, without burn."""
+    the statistics. 0 only if every job ended as its policy intended, without burn. The
+    graph runs in a ROS domain of its own unless ROS_DOMAIN_ID is set, and under
+    ``namespace`` if given."""
     import json
 
     from hex_control.grinding.job_report import job_statistics, write_report
 
+    if "ROS_DOMAIN_ID" not in os.environ:
+        os.environ["ROS_DOMAIN_ID"] = str(private_domain_id())
+        print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
+              "to run it in yours)")
     out = Path(output)
     reset = calibrate_reset_time(bead_length_mm, machine_file=machine_file)
     for name, r in reset.items():
@@ -395,7 +416,8 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         start = time.monotonic()
         record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
                          overrides, quiet=jobs > 1, placement=placement,
-                         machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after)
+                         machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
+                         namespace=namespace)
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)

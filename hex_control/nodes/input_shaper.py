@@ -47,8 +47,8 @@ TYPES = {"pose": PoseStamped, "joint_state": JointState}
 SHAPER_PARAMETERS = ("shaper", "frequency_hz", "damping", "vibration_tolerance", "optimized_frequencies_hz")
 PARAMETERS = {
     "input_type": Spec("pose", "message type of the sample stream", choices=tuple(TYPES)),
-    "input_topic": Spec("/motion/setpoint_raw", "the unshaped sample stream"),
-    "output_topic": Spec("/motion/setpoint", "the shaped sample stream"),
+    "input_topic": Spec("motion/setpoint_raw", "the unshaped sample stream"),
+    "output_topic": Spec("motion/setpoint", "the shaped sample stream"),
     "sample_period_s": Spec(0.005, "period of the sample stream and of a shaped tool path", 1e-4, 1.0),
     "interpolate": Spec(True, "place impulses between samples by linear interpolation"),
     # the shaper may be changed live (validated, then re-designed off the executor thread)
@@ -64,6 +64,8 @@ PARAMETERS = {
 
 
 class InputShaperNode(Node):
+    READY_PARAMETERS = ("shaper", "frequency_hz", "damping")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("input_shaper", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -80,8 +82,8 @@ class InputShaperNode(Node):
         self._publisher = self.create_publisher(self._type, self.get_parameter("output_topic").value, 100)
         info_subscription(self, self._type, self.get_parameter("input_topic").value, self._on_sample, 100,
                           self.diagnostics, "samples")
-        self._path_publisher = self.create_publisher(ToolPath, "/motion/tool_path", LATCHED)
-        self.create_subscription(ToolPath, "/motion/tool_path_raw", self._on_path, LATCHED)
+        self._path_publisher = self.create_publisher(ToolPath, "motion/tool_path", LATCHED)
+        self.create_subscription(ToolPath, "motion/tool_path_raw", self._on_path, LATCHED)
         self.add_on_set_parameters_callback(self._validate)
         self.add_post_set_parameters_callback(self._apply)
         self.diagnostics.set("shaper", self._values()["shaper"])

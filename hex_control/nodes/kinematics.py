@@ -145,6 +145,8 @@ PARAMETERS = {
 
 
 class KinematicsNode(Node):
+    READY_PARAMETERS = ("machine_file",)  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("kinematics", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -154,10 +156,10 @@ class KinematicsNode(Node):
         self.create_service(InverseKinematics, "~/inverse_kinematics", self._on_inverse)
         self.create_service(TestPose, "~/test_pose", self._on_test_pose)
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
-        self._command = self.create_publisher(JointState, "/plant/strut_command", 100)
-        info_subscription(self, PoseStamped, "/motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint")
-        self._trajectory = self.create_publisher(JointTrajectory, "/plant/strut_trajectory", LATCHED)
-        self.create_subscription(ToolPath, "/motion/tool_path", self._on_path, LATCHED)
+        self._command = self.create_publisher(JointState, "plant/strut_command", 100)
+        info_subscription(self, PoseStamped, "motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint")
+        self._trajectory = self.create_publisher(JointTrajectory, "plant/strut_trajectory", LATCHED)
+        self.create_subscription(ToolPath, "motion/tool_path", self._on_path, LATCHED)
         self._names = self.core.joint_names
 
     def _on_path(self, msg: ToolPath) -> None:
@@ -285,6 +287,7 @@ def main(args=None) -> int:
             executor.add_node(each)
         worker = threading.Thread(target=runtime.spin_until_stopped, args=(executors[1], stop), daemon=True)
         worker.start()
+        node.get_logger().info(runtime.ready_line(node))
         runtime.spin_until_stopped(executors[0], stop)
     finally:
         # the worker leaves its wait set before any executor or node is torn down: shutting

@@ -76,6 +76,8 @@ PARAMETERS = {
 
 
 class LoadPredictorNode(Node):
+    READY_PARAMETERS = ("input_topic", "quantity")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("load_predictor", **kwargs)
         declare_parameters(self, PARAMETERS)

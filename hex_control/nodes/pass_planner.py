@@ -82,13 +82,15 @@ PARAMETERS = {
     "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the start "
                           "of the pass's path (s): the planning time charged between passes", 0.0, 60.0,
                           read_only=False),
-    "reachability_service": Spec("/kinematics/test_pose", "TestPose service for the path of every pass; "
+    "reachability_service": Spec("kinematics/test_pose", "TestPose service for the path of every pass; "
                                  "'' = no check"),
     "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
 }
 
 
 class PassPlannerNode(Node):
+    READY_PARAMETERS = ("config", "machine_file")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("pass_planner", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -106,12 +108,12 @@ class PassPlannerNode(Node):
         service = self.get_parameter("reachability_service").value
         self.reach_client = self.create_client(TestPose, service) if service else None
 
-        self.trajectory_pub = self.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+        self.trajectory_pub = self.create_publisher(ForceTrajectory, "grinding/force_trajectory", LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
-        self.result_pub = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
-        self.path_pub = self.create_publisher(ToolPath, "/motion/tool_path_raw", LATCHED)
-        self.create_subscription(PassCommand, "/grinding/pass_command", self._on_command, LATCHED)
-        self.create_subscription(ContourMsg, "/grinding/contour", self._on_contour, LATCHED)
+        self.result_pub = self.create_publisher(PassResult, "grinding/pass_result", RESULTS)
+        self.path_pub = self.create_publisher(ToolPath, "motion/tool_path_raw", LATCHED)
+        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, LATCHED)
+        self.create_subscription(ContourMsg, "grinding/contour", self._on_contour, LATCHED)
         wall_timer(self, 0.02, self._poll)
 
     # -- inputs --------------------------------------------------------------------------

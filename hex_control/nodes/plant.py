@@ -190,7 +190,7 @@ PARAMETERS = {
     "clock_period_s": Spec(0.05, "sim time between /clock messages", 0.001, 10.0),
     "telemetry_period_s": Spec(0.1, "sim time batched into one /plant/telemetry message", 0.001, 10.0),
     "debug_streams": Spec(True, "publish true_wrench, deflection and tool_centre every period"),
-    "controller_status_topic": Spec("/force_controller/status", "latched status of the force controller: in "
+    "controller_status_topic": Spec("force_controller/status", "latched status of the force controller: in "
                                     "lock-step a pass starts only once it holds the pass; '' = do not wait"),
     "table_start_mm": Spec(-1.0, "table position at start-up", -50.0, 50.0),
     "strut_names": Spec([""], "joint names of the struts; [''] = the kinematics node's for the machine"),
@@ -225,6 +225,8 @@ PARAMETERS = {
 
 
 class PlantNode(Node):
+    READY_PARAMETERS = ("mode", "machine_file", "seed", "grinding")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("plant", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -275,28 +277,28 @@ class PlantNode(Node):
         self.started = False  # a first command has answered a measurement
         self.loop_start = self.loop_end = None
         self.diagnostics = Diagnostics(self)
-        self.clock_publisher = self.create_publisher(Clock, "/clock", 10)
-        self.wrench_publisher = self.create_publisher(WrenchStamped, "/plant/wrench", 100)
+        self.clock_publisher = self.create_publisher(Clock, "clock", 10)  # /clock, or the cell's under its namespace
+        self.wrench_publisher = self.create_publisher(WrenchStamped, "plant/wrench", 100)
         # transient-local: a late joiner (a logger, a test) still gets the last 1000 states
-        self.truth_publisher = self.create_publisher(WrenchStamped, "/plant/true_wrench", QoSProfile(
+        self.truth_publisher = self.create_publisher(WrenchStamped, "plant/true_wrench", QoSProfile(
             depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL))
-        self.strut_publisher = self.create_publisher(JointState, "/plant/strut_states", 100)
-        self.deflection_publisher = self.create_publisher(Float64, "/plant/deflection", 100)
+        self.strut_publisher = self.create_publisher(JointState, "plant/strut_states", 100)
+        self.deflection_publisher = self.create_publisher(Float64, "plant/deflection", 100)
         for topic, msg_type, callback, qos, owner, name in (
-                ("/plant/force_axis_command", ForceAxisCommand, self._on_force_command, 100, "force_command_owner",
+                ("plant/force_axis_command", ForceAxisCommand, self._on_force_command, 100, "force_command_owner",
                  "force_command"),
-                ("/plant/strut_command", JointState, self._on_strut_command, 100, "strut_command_owner",
+                ("plant/strut_command", JointState, self._on_strut_command, 100, "strut_command_owner",
                  "strut_command"),
-                ("/plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
+                ("plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
                  "strut_command_owner", "strut_trajectory")):
             info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, p(owner))
         # kept (transient-local, the last 10 batches): a late observer still learns where the plant holds
-        self.telemetry_publisher = self.create_publisher(PlantTelemetry, "/plant/telemetry", TELEMETRY)
+        self.telemetry_publisher = self.create_publisher(PlantTelemetry, "plant/telemetry", TELEMETRY)
         if self.monitor is not None:
-            self.contour_publisher = self.create_publisher(ContourMsg, "/grinding/contour", LATCHED)
-            self.result_publisher = self.create_publisher(PassResult, "/grinding/pass_result", RESULTS)
-            self.centre_publisher = self.create_publisher(PointStamped, "/plant/tool_centre", STREAM)
-            self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+            self.contour_publisher = self.create_publisher(ContourMsg, "grinding/contour", LATCHED)
+            self.result_publisher = self.create_publisher(PassResult, "grinding/pass_result", RESULTS)
+            self.centre_publisher = self.create_publisher(PointStamped, "plant/tool_centre", STREAM)
+            self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED)
             self.controller_holds = deque(maxlen=HELD_TRAJECTORIES)  # (job_id, pass_index) the controller has
             if p("controller_status_topic"):
                 self.create_subscription(DiagnosticStatus, p("controller_status_topic"), self._on_controller_status,

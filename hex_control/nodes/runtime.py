@@ -103,6 +103,18 @@ def spin_until_stopped(executor, stop: threading.Event) -> None:
         executor.spin_once(timeout_sec=WAIT_S)
 
 
+def ready_line(node) -> str:
+    """The one line a node logs once it is up: its full name and the parameters its class
+    names in ``READY_PARAMETERS`` (files by their name), and sim time if it runs on it."""
+    shown = []
+    for name in getattr(node, "READY_PARAMETERS", ()):
+        value = node.get_parameter(name).value
+        shown.append(f"{name}={os.path.basename(value) if isinstance(value, str) and '/' in value else value}")
+    if node.get_parameter("use_sim_time").value:
+        shown.append("sim time")
+    return f"ready: {node.get_fully_qualified_name()}" + (f" ({', '.join(shown)})" if shown else "")
+
+
 def create_node(node_class):
     """``node_class()``, or None once the reason it refused its parameters is printed on one
     line (a value out of range, a bad choice, a missing file): not a traceback."""
@@ -122,6 +134,7 @@ def run_node(node_class, args=None) -> int:
         node = create_node(node_class)
         if node is None:
             return 2
+        node.get_logger().info(ready_line(node))
         executor = make_executor()
         executor.add_node(node)
         spin_until_stopped(executor, stop)

@@ -112,6 +112,8 @@ PARAMETERS = {
 
 
 class SequencePlannerNode(Node):
+    READY_PARAMETERS = ("planner_config", "job_dir")  # in its start-up line
+
     def __init__(self, **kwargs):
         super().__init__("sequence_planner", **kwargs)
         declare_parameters(self, PARAMETERS)
@@ -134,15 +136,15 @@ class SequencePlannerNode(Node):
         self._last_prediction_stamp = None
         self._result_stamp = TimeMsg()  # of the latest pass result applied (plant time)
 
-        self.command_pub = self.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
+        self.command_pub = self.create_publisher(PassCommand, "grinding/pass_command", LATCHED)
         # kept (the last 10 decisions): an observer that matches the planner late, as after its
         # restart, still learns every pass it commanded
         self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", RESULTS)
         self.result_pub = self.create_publisher(GrindBead.Result, "~/job_result", LATCHED)
-        self.create_subscription(PassResult, "/grinding/pass_result", self._on_result, RESULTS)
-        self.create_subscription(LoadPrediction, "/load_predictor/pass/prediction", self._on_prediction, 10)
-        self.create_subscription(DiagnosticStatus, "/pass_planner/status", self._on_pass_planner_status, LATCHED)
-        self.create_subscription(ForceTrajectory, "/grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
+        self.create_subscription(LoadPrediction, "load_predictor/pass/prediction", self._on_prediction, 10)
+        self.create_subscription(DiagnosticStatus, "pass_planner/status", self._on_pass_planner_status, LATCHED)
+        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=lambda _goal: GoalResponse.ACCEPT,
                                    handle_accepted_callback=self._on_accepted,
@@ -373,7 +375,7 @@ class SequencePlannerNode(Node):
         stamp = _stamp_ns(msg.header.stamp)
         if (self.get_parameter("prediction_wait_s").value > 0 and stamp != self._last_prediction_stamp
                 and self.model_update.plausible(msg.specific_energy_j_mm3)
-                and self.count_publishers("/load_predictor/pass/prediction") > 0):
+                and self.count_publishers("load_predictor/pass/prediction") > 0):
             self._awaited_stamp = (stamp, time.monotonic())
             return
         self._advance()

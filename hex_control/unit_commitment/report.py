@@ -61,7 +61,8 @@ def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, mi
     summary = {"fleet": fleet.name, "cost": plan.total_cost, "running_cost": plan.schedule.running_cost,
                "starting_cost": plan.schedule.starting_cost, "unit_cost_per_mwh": plan.unit_cost,
                "schedule_s": seconds, "rounds": plan.rounds,
-               "generation_mw": plan.generation_mw.round(1).tolist(), "transfers_mw": plan.transfers_mw.round(1).tolist(),
+               "generation_mw": plan.generation_mw.round(1).tolist(),
+               "transfers_mw": plan.transfers_mw.round(1).tolist(),
                "units_on": [int(sum(on)) for on in plan.schedule.commitments]}
     if milp:
         from hex_control.unit_commitment.milp import milp_schedule
