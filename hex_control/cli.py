@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import time
 
 from hex_control.shaping.shapers import SHAPERS
 
@@ -32,6 +33,8 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
                       "another host, e.g. 'ip netns exec hexA' (scripts/two_hosts.sh)")
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
+    demo.add_argument("--no-record", action="store_true", help="do not record the messages (recording/: "
+                      "rosbag2's MCAP layout, for Foxglove, PlotJuggler, hexctl play)")
     demo.add_argument("--namespace", default="", help="run the cell under this namespace, e.g. /cell2 (one "
                       "namespace holds one cell; cells side by side in a domain do not meet)")
 
@@ -125,6 +128,19 @@ def _parser() -> argparse.ArgumentParser:
             job.add_argument("--std", type=float, default=0.0142, help="relative std of the fluctuation")
             job.add_argument("--a", type=float, default=0.8, help="Gauss-Markov coefficient per hour")
             job.add_argument("--seed", type=int, default=0)
+
+    record = commands.add_parser("record", help="record topics into rosbag2's MCAP layout (ros2 bag record)")
+    record.add_argument("topics", nargs="*", help="topics to record")
+    record.add_argument("-a", "--all", action="store_true", help="every topic, as it appears (hidden ones not)")
+    record.add_argument("-o", "--output", default=None, help="recording directory (default: rosbag2_<time>)")
+    record.add_argument("--duration", type=float, default=None, help="stop after this long (s); default Ctrl-C")
+    play = commands.add_parser("play", help="publish a recording again (ros2 bag play)")
+    play.add_argument("directory")
+    play.add_argument("--rate", type=float, default=1.0, help="pace relative to the recording")
+    play.add_argument("--topics", nargs="*", default=None, help="only these topics")
+    bag = commands.add_parser("bag", help="inspect a recording (ros2 bag info)")
+    bag.add_subparsers(dest="verb", required=True).add_parser("info", help="topics, types, counts, duration") \
+        .add_argument("directory")
 
     bench = commands.add_parser("bench", help="run benchmarks (ratios against in-process baselines)")
     bench.add_argument("cases", nargs="*", help="case names (default: all)")
@@ -352,6 +368,19 @@ def _exit_on_sigterm(signum, frame):
     raise SystemExit(128 + signum)
 
 
+def _bag_info(directory: str) -> int:
+    from hex_control.recording.bag import bag_info
+
+    info = bag_info(directory)
+    seconds = info["duration"]["nanoseconds"] / 1e9
+    print(f"Files:        {', '.join(info['relative_file_paths'])}\nStorage id:   {info['storage_identifier']}\n"
+          f"Duration:     {seconds:.3f} s\nMessages:     {info['message_count']}\nTopics:")
+    for entry in info["topics_with_message_count"]:
+        meta = entry["topic_metadata"]
+        print(f"  {meta['name']} | {meta['type']} | {entry['message_count']} | {meta['serialization_format']}")
+    return 0
+
+
 def _unit_commitment(args) -> int:
     from hex_control.unit_commitment import report
 
@@ -395,7 +424,7 @@ def main(argv=None) -> int:
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
                             args.bead_length, args.bead_height, args.dulling,
                             args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine],
-                            args.restart_planner_after, args.namespace)
+                            args.restart_planner_after, args.namespace, not args.no_record)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 
@@ -410,6 +439,17 @@ def main(argv=None) -> int:
             return _shaper(args)
         if args.command == "pass":
             return _pass(args)
+        if args.command == "record":
+            from hex_control.nodes.recorder import record
+
+            return record(args.output or time.strftime("rosbag2_%Y_%m_%d-%H_%M_%S"), args.topics, args.all,
+                          args.duration)
+        if args.command == "play":
+            from hex_control.nodes.recorder import play
+
+            return play(args.directory, args.rate, args.topics)
+        if args.command == "bag":
+            return _bag_info(args.directory)
         if args.command == "unit-commitment":
             return _unit_commitment(args)
         if args.command == "bench":

@@ -19,9 +19,14 @@ from hex_control.config import config_file
 from hex_control.grinding.part_quality import part_quality
 from hex_control.nodes.graph import graph_nodes
 from hex_control.nodes.grind_job import JobSession
+from hex_control.recording.bag import read_messages
 from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
+#: the topics of docs/graph.md's table, as named within a cell (the action's and /diagnostics aside)
+GRAPH_TABLE = ("clock", "grinding/pass_command", "pass_planner/status", "grinding/contour", "grinding/force_trajectory",
+               "motion/tool_path_raw", "plant/strut_trajectory", "plant/telemetry", "plant/force_axis_command",
+               "plant/wrench", "grinding/pass_result", "sequence_planner/job_result")
 RESET_TIME_S = 4.7  # the ZVD-shaped t_R of the shipped machine, run-on and run-off included (test_grinding_cell)
 
 
@@ -249,3 +254,12 @@ def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossin
     for k in (1, 2):
         assert {f"/cell{k}/plant/wrench", f"/cell{k}/grinding/pass_result", f"/cell{k}/clock"} <= set(topics)
     assert "/clock" not in topics and "/plant/wrench" not in topics
+    # item 3: each job's recording (rosbag2 MCAP, read by the mcap reader) holds every topic of
+    # docs/graph.md's table within its cell, and nothing of the other cell
+    for k, session in zip((1, 2), sessions):
+        recorded = {}
+        for topic, _, _, _ in read_messages(session.output / "recording"):
+            recorded[topic] = recorded.get(topic, 0) + 1
+        assert {f"/cell{k}/{topic}" for topic in GRAPH_TABLE} <= set(recorded), sorted(recorded)
+        assert all(topic.startswith(f"/cell{k}/") for topic in recorded)
+        assert recorded[f"/cell{k}/grinding/pass_command"] >= outcomes[session.seed]["passes"]

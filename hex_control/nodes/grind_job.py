@@ -31,6 +31,8 @@ from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
 from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control.nodes.messages import to_primitive
+from hex_control.nodes.recorder import Recorder
+from hex_control.recording.bag import BagWriter
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
@@ -153,6 +155,17 @@ STALL_S = 60.0
 LOOP_START_S = 30.0
 
 
+def fresh_recording_dir(output: Path) -> Path:
+    """``output/recording``, an earlier run's moved aside to ``recording-<n>``."""
+    directory = output / "recording"
+    if directory.exists():
+        n = 1
+        while (output / f"recording-{n}").exists():
+            n += 1
+        directory.rename(output / f"recording-{n}")
+    return directory
+
+
 def fresh_job_dir(output: Path) -> Path:
     """``output/jobs`` for this run's sequence planner, which resumes any unfinished job it
     finds there: an earlier run's that was cut off is moved aside to ``jobs-<n>`` first (a
@@ -173,7 +186,7 @@ class JobSession:
 
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
                  plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None,
-                 namespace: str = ""):
+                 namespace: str = "", record: bool = True):
         self.output = Path(output)
         self.graph = NodeGraph(graph_nodes(fresh_job_dir(self.output), seed, mode, plant_overrides, machine_file,
                                            real_time_factor, namespace), self.output / "logs", placement=placement)
@@ -186,6 +199,10 @@ class JobSession:
         self.executor = SingleThreadedExecutor(context=self.context)
         self.observer = JobObserver(self.record, context=self.context, namespace=namespace or "/")
         self.executor.add_node(self.observer)
+        self.recorder = None
+        if record:  # every topic of the cell, into output/recording (rosbag2's MCAP layout)
+            self.recorder = Recorder(self.observer, BagWriter(fresh_recording_dir(self.output)), all_topics=True,
+                                     under=namespace)
         self.result_future = None
 
     def __enter__(self) -> JobSession:
@@ -194,6 +211,8 @@ class JobSession:
 
     def __exit__(self, *exc) -> None:
         try:
+            if self.recorder is not None:
+                self.recorder.close()
             self.executor.remove_node(self.observer)
             self.observer.destroy_node()
             self.executor.shutdown()
@@ -275,9 +294,14 @@ class JobSession:
             return self.observer.job_result
 
         result = self.spin_until(finished, timeout_s, "the job's result")
-        end = time.monotonic() + 2.0  # the last pass's result and contour may come after the job's
-        while time.monotonic() < end and (len(record.results) < result.passes
-                                          or max(record.contours) < len(record.results)):
+        job_result = self.observer.resolve_topic_name("sequence_planner/job_result")
+
+        def straggling():  # the last pass's result and contour, and the recording's copy of the job's result
+            return (len(record.results) < result.passes or max(record.contours) < len(record.results)
+                    or self.recorder is not None and not self.recorder.counts.get(job_result))
+
+        end = time.monotonic() + 10.0  # they may come after the job's result; a bounded wait for them
+        while time.monotonic() < end and straggling():
             self.executor.spin_once(timeout_sec=0.05)
         finished()
         record.outcome = {"reason": REASONS[result.reason], "message": result.message, "passes": result.passes,
@@ -294,12 +318,12 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
             timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
             machine_file: str | None = None, restart_planner_after: int | None = None,
-            namespace: str = "") -> JobRecord:
+            namespace: str = "", record: bool = True) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
     ``restart_planner_after`` k: kill the sequence planner (SIGKILL) once pass k has ended
     and start it again -- it resumes from its job log."""
     with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file,
-                    namespace) as session:
+                    namespace, record) as session:
         session.start_job(deadline_s, reset_time_s)
         if not quiet:
             bead, width = session.record.contours[0]
@@ -381,11 +405,11 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
              bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
              machine_host: list[str] | None = None, machine_peers: str = "",
              machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None,
-             namespace: str = "") -> int:
+             namespace: str = "", record: bool = True) -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. 0 only if every job ended as its policy intended, without burn. The
     graph runs in a ROS domain of its own unless ROS_DOMAIN_ID is set, and under
-    ``namespace`` if given."""
+    ``namespace`` if given; each job's messages are recorded into its ``recording/``."""
     import json
 
     from hex_control.grinding.job_report import job_statistics, write_report
@@ -417,7 +441,7 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
                          overrides, quiet=jobs > 1, placement=placement,
                          machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
-                         namespace=namespace)
+                         namespace=namespace, record=record)
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)

@@ -16,7 +16,8 @@ _NESTED = re.compile(r"^(?:sequence<)?([a-zA-Z0-9_]+)/([a-zA-Z0-9_]+)(?:, ?\d+)?
 
 
 def message_class(type_name: str):
-    """Class of a message type: ``pkg/msg/Type``, ``pkg/Type`` or ``pkg.msg.Type``."""
+    """Class of a message type: ``pkg/msg/Type``, ``pkg/Type`` or ``pkg.msg.Type``, or a part
+    of an action or service as the graph names it (``pkg/action/Name_Feedback``)."""
     parts = re.split(r"[/.]", type_name.strip())
     if len(parts) == 2:
         parts = [parts[0], "msg", parts[1]]
@@ -25,7 +26,11 @@ def message_class(type_name: str):
     package, kind, name = parts
     try:
         module = importlib.import_module(f"{package}.{kind}")
-        cls = getattr(module, name)
+        if kind in ("action", "srv") and not hasattr(module, name) and "_" in name:
+            base, _, part = name.rpartition("_")  # an action's or service's part: pkg/action/Name_Feedback
+            cls = getattr(getattr(module, base), part)
+        else:
+            cls = getattr(module, name)
     except (ImportError, AttributeError) as exc:
         raise ValueError(f"unknown message type {type_name!r}: {exc}") from None
     if not hasattr(cls, "get_fields_and_field_types"):

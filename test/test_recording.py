@@ -1,0 +1,146 @@
+"""Issue 23 item 3: recordings in rosbag2's MCAP layout. Every message type of the graph
+goes through a recording as its CDR bytes and comes back out through the mcap reader and
+mcap-ros2-support's decoder -- the schema text alone, without rclpy -- field for field."""
+
+import re
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import pytest
+import yaml
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rclpy.serialization import serialize_message
+
+from hex_control.nodes.messages import message_class, to_primitive
+from hex_control.recording.bag import BagWriter, bag_info, message_definition, read_messages
+from ros_harness import wait_until
+
+MSGS = Path(sys.prefix) / "share" / "hex_control_msgs" / "msg"
+GRAPH_TYPES = sorted({f"hex_control_msgs/msg/{p.stem}" for p in MSGS.glob("*.msg")} | {
+    "geometry_msgs/msg/WrenchStamped", "geometry_msgs/msg/PoseStamped", "geometry_msgs/msg/PointStamped",
+    "sensor_msgs/msg/JointState", "trajectory_msgs/msg/JointTrajectory", "std_msgs/msg/Float64",
+    "rosgraph_msgs/msg/Clock", "diagnostic_msgs/msg/DiagnosticArray", "diagnostic_msgs/msg/DiagnosticStatus",
+    "hex_control_msgs/action/GrindBead_Feedback", "hex_control_msgs/action/GrindBead_Result"})
+
+
+def _filled(cls, depth: int = 0):
+    """A message with every field set to a value that is not its default (sequences of two)."""
+    msg = cls()
+    for name, kind in msg.get_fields_and_field_types().items():
+        fixed = re.search(r"\[(\d+)\]$", kind)
+        many = kind.startswith("sequence<") or fixed is not None
+        base = re.sub(r"^sequence<|(, ?\d+)?>$|\[\d*\]$", "", kind)
+        base = re.sub(r"<=\d+$", "", base)
+        if "/" in base:
+            element = lambda: _filled(message_class(base), depth + 1)  # noqa: E731
+        elif base in ("string", "wstring"):
+            element = lambda: "s"  # noqa: E731
+        elif base == "boolean":
+            element = lambda: True  # noqa: E731
+        elif base == "octet":
+            element = lambda: bytes([7])  # noqa: E731
+        elif base in ("float", "double"):
+            element = lambda: 2.5 + depth  # noqa: E731
+        else:
+            element = lambda: 3 + depth  # noqa: E731
+        value = [element() for _ in range(int(fixed.group(1)) if fixed else 2)] if many else element()
+        setattr(msg, name, value)
+    return msg
+
+
+def _namespace_to_primitive(value):
+    if hasattr(value, "__slots__") and not isinstance(value, (bytes, str)):  # mcap_ros2's decoded classes
+        return {k: _namespace_to_primitive(getattr(value, k)) for k in value.__slots__}
+    if isinstance(value, (list, tuple)):
+        return [_namespace_to_primitive(v) for v in value]
+    if isinstance(value, (bytes, bytearray)):
+        return list(value)
+    return value
+
+
+@pytest.mark.parametrize("type_name", GRAPH_TYPES)
+def test_every_message_type_of_the_graph_round_trips_through_a_recording(type_name, tmp_path):
+    original = _filled(message_class(type_name))
+    with BagWriter(tmp_path / "bag") as writer:
+        writer.add_topic("/cell/topic", type_name, [{"durability": "transient_local"}])
+        writer.write("/cell/topic", serialize_message(original), 1_000_000_123)
+    with open(tmp_path / "bag" / "bag_0.mcap", "rb") as stream:
+        [(schema, channel, message, decoded)] = list(
+            make_reader(stream, decoder_factories=[DecoderFactory()]).iter_decoded_messages())
+    assert (schema.encoding, channel.message_encoding, schema.name) == ("ros2msg", "cdr", type_name)
+    assert schema.data.decode() == message_definition(type_name)
+    assert message.log_time == 1_000_000_123 and channel.topic == "/cell/topic"
+    expected = to_primitive(original)
+    assert _namespace_to_primitive(decoded) == pytest.approx(expected) if not isinstance(expected, dict) \
+        else _compare(_namespace_to_primitive(decoded), expected)
+
+
+def _compare(decoded, expected):
+    assert decoded.keys() == expected.keys()
+    for key, value in expected.items():
+        if isinstance(value, dict):
+            _compare(decoded[key], value)
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            assert len(decoded[key]) == len(value)
+            for a, b in zip(decoded[key], value):
+                _compare(a, b)
+        elif isinstance(value, list) and len(value) == 1 and isinstance(decoded[key], int):
+            assert [decoded[key]] == value, key  # one byte: rclpy gives bytes, the decoder an int
+        else:
+            assert decoded[key] == pytest.approx(value), key
+    return True
+
+
+def test_the_metadata_is_rosbag2s_and_a_recording_is_read_back_in_time_order(tmp_path):
+    with BagWriter(tmp_path / "run") as writer:
+        writer.add_topic("/a", "std_msgs/msg/Float64", [{"reliability": "reliable"}])
+        writer.add_topic("/b", "rosgraph_msgs/msg/Clock")
+        for t, topic in ((30, "/a"), (10, "/b"), (20, "/a")):
+            writer.write(topic, serialize_message(message_class(
+                "std_msgs/msg/Float64" if topic == "/a" else "rosgraph_msgs/msg/Clock")()), t)
+    info = bag_info(tmp_path / "run")
+    assert info["version"] == 9 and info["storage_identifier"] == "mcap" and info["message_count"] == 3
+    assert info["starting_time"] == {"nanoseconds_since_epoch": 10} and info["duration"] == {"nanoseconds": 20}
+    counts = {e["topic_metadata"]["name"]: e["message_count"] for e in info["topics_with_message_count"]}
+    assert counts == {"/a": 2, "/b": 1} and info["relative_file_paths"] == ["run_0.mcap"]
+    assert [(topic, t) for topic, _, _, t in read_messages(tmp_path / "run")] == [("/b", 10), ("/a", 20), ("/a", 30)]
+    with pytest.raises(ValueError):
+        BagWriter(tmp_path / "run")  # not over an earlier recording
+
+
+def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_env, tmp_path):
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+    from std_msgs.msg import Float64
+
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    publisher = ros.node("latched_publisher").create_publisher(Float64, "/recorded/latched", latched)
+    publisher.publish(Float64(data=42.5))
+    hexctl = str(Path(sys.executable).parent / "hexctl")
+    out = tmp_path / "rec"
+    recorder = subprocess.Popen([hexctl, "record", "/recorded/latched", "-o", str(out)], env=ros_env,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines = []
+    reader = threading.Thread(target=lambda: lines.extend(recorder.stdout), daemon=True)
+    reader.start()
+    # the latched message reaches the late-joining recorder when it matches; Ctrl-C then ends it
+    wait_until(lambda: any("first message on /recorded/latched" in line for line in lines), 60.0,
+               what="the recorder's first message")
+    recorder.send_signal(signal.SIGINT)
+    recorder.wait(timeout=60)
+    reader.join(timeout=10)
+    output = "".join(lines)
+    assert recorder.returncode == 0, output
+    [(topic, type_name, data, _)] = list(read_messages(out))
+    from rclpy.serialization import deserialize_message
+
+    assert (topic, type_name, deserialize_message(data, Float64).data) == ("/recorded/latched",
+                                                                          "std_msgs/msg/Float64", 42.5)
+    info = subprocess.run([hexctl, "bag", "info", str(out)], env=ros_env, capture_output=True, text=True, timeout=60)
+    assert info.returncode == 0 and "/recorded/latched | std_msgs/msg/Float64 | 1 | cdr" in info.stdout
+    offered = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert offered["topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"][0]["durability"] \
+        == "transient_local"
