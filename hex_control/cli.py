@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import time
@@ -170,7 +171,95 @@ def _parser() -> argparse.ArgumentParser:
     pub.add_argument("-t", "--times", type=int, default=0, help="publish N times (0 = until Ctrl-C)")
     pub.add_argument("-1", "--once", action="store_true", help="publish once")
     pub.add_argument("--wait", type=float, default=2.0, help="wait for a subscriber first (s)")
+    for verb in (echo, pub):
+        verb.add_argument("--qos-durability", choices=["transient_local", "volatile"], default=None,
+                          help="default: the publishers' on echo (latched ones too), volatile on pub")
+        verb.add_argument("--qos-reliability", choices=["best_effort", "reliable"], default=None)
+        verb.add_argument("--qos-depth", type=int, default=None, help="history depth")
+    _ros_verbs(commands)
     return parser
+
+
+def _ros_verbs(commands) -> None:
+    """hexctl node / param / service / action: ros2cli's verbs (hex_control/ros_cli/)."""
+    node = commands.add_parser("node", help="nodes of the graph (ros2 node stand-in)").add_subparsers(
+        dest="verb", required=True)
+    node.add_parser("list", help="list nodes").add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    info = node.add_parser("info", help="a node's topics, services and actions")
+    info.add_argument("node", help="full name, e.g. /plant")
+    info.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    param = commands.add_parser("param", help="parameters of running nodes (ros2 param stand-in)").add_subparsers(
+        dest="verb", required=True)
+    for verb, text in (("list", "list a node's parameters"), ("get", "print a parameter"),
+                       ("set", "set a parameter (a YAML value)"), ("describe", "type, description, range"),
+                       ("dump", "all parameters as a parameter file")):
+        job = param.add_parser(verb, help=text)
+        job.add_argument("node", help="full name, e.g. /force_controller")
+        if verb in ("get", "set", "describe"):
+            job.add_argument("name")
+        if verb == "set":
+            job.add_argument("value")
+        job.add_argument("--timeout", type=float, default=10.0, help="wait for the node (s)")
+    service = commands.add_parser("service", help="services (ros2 service stand-in)").add_subparsers(
+        dest="verb", required=True)
+    services = service.add_parser("list", help="list services")
+    services.add_argument("-t", "--show-types", action="store_true")
+    services.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    call = service.add_parser("call", help="call a service with a YAML request")
+    call.add_argument("service")
+    call.add_argument("type", help="e.g. hex_control_msgs/srv/InverseKinematics")
+    call.add_argument("values", nargs="?", default="", help="YAML mapping of the request's fields")
+    call.add_argument("--timeout", type=float, default=10.0, help="wait for the service and its answer (s)")
+    call.add_argument("--no-resend", action="store_true", help="send once (for a service that must not run twice)")
+    action = commands.add_parser("action", help="actions (ros2 action stand-in)").add_subparsers(
+        dest="verb", required=True)
+    actions = action.add_parser("list", help="list actions")
+    actions.add_argument("-t", "--show-types", action="store_true")
+    actions.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    goal = action.add_parser("send_goal", help="send a goal; Ctrl-C cancels it")
+    goal.add_argument("action", help="e.g. /sequence_planner/grind_bead")
+    goal.add_argument("type", help="e.g. hex_control_msgs/action/GrindBead")
+    goal.add_argument("values", nargs="?", default="", help="YAML mapping of the goal's fields")
+    goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
+    goal.add_argument("--timeout", type=float, default=30.0, help="wait for the server and its answers (s)")
+
+
+def _ros_verb(args) -> int:
+    if args.command == "topic":
+        from hex_control.ros_cli import topic
+
+        if args.verb == "list":
+            return topic.topic_list(args.show_types, args.wait)
+        if args.verb == "echo":
+            return topic.topic_echo(args.topic, args.once, args.count, args.field, args.timeout,
+                                    args.qos_durability, args.qos_reliability, args.qos_depth)
+        if args.verb == "hz":
+            return topic.topic_hz(args.topic, args.window, args.duration, args.timeout)
+        return topic.topic_pub(args.topic, args.type, args.values, args.rate, 1 if args.once else args.times,
+                               args.wait, args.qos_durability, args.qos_reliability, args.qos_depth)
+    if args.command == "node":
+        from hex_control.ros_cli import node
+
+        return node.node_list(args.wait) if args.verb == "list" else node.node_info(args.node, args.wait)
+    if args.command == "param":
+        from hex_control.ros_cli import param
+
+        if args.verb in ("list", "dump"):
+            return getattr(param, f"param_{args.verb}")(args.node, args.timeout)
+        if args.verb == "set":
+            return param.param_set(args.node, args.name, args.value, args.timeout)
+        return getattr(param, f"param_{args.verb}")(args.node, args.name, args.timeout)
+    if args.command == "service":
+        from hex_control.ros_cli import service
+
+        if args.verb == "list":
+            return service.service_list(args.show_types, args.wait)
+        return service.service_call(args.service, args.type, args.values, args.timeout, not args.no_resend)
+    from hex_control.ros_cli import action
+
+    if args.verb == "list":
+        return action.action_list(args.show_types, args.wait)
+    return action.send_goal(args.action, args.type, args.values, args.feedback, args.timeout)
 
 
 def _job_stats(args) -> int:
@@ -456,19 +545,19 @@ def main(argv=None) -> int:
             from hex_control.bench import run_benchmarks
 
             return run_benchmarks(args.cases, quick=args.quick)
-        from hex_control import topic_tools
-
-        if args.verb == "list":
-            return topic_tools.topic_list(args.show_types, args.wait)
-        if args.verb == "echo":
-            return topic_tools.topic_echo(args.topic, args.once, args.count, args.field, args.timeout)
-        if args.verb == "hz":
-            return topic_tools.topic_hz(args.topic, args.window, args.duration, args.timeout)
-        return topic_tools.topic_pub(args.topic, args.type, args.values, args.rate,
-                                     1 if args.once else args.times, args.wait)
+        return _ros_verb(args)
     except KeyboardInterrupt:
         return 130
+    except BrokenPipeError:  # `hexctl ... | head`: the reader has what it wanted
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except Exception as exc:
+        from hex_control.ros_cli.common import VerbError
+
+        if isinstance(exc, VerbError):
+            if exc.code != 130:
+                print(f"hexctl: {exc}", file=sys.stderr)
+            return exc.code
         if _terminated_by is not None:
             # the SystemExit was raised inside a callback from rclpy's C++ (e.g. building a
             # message), which turns it into another error: still the signal's exit

@@ -48,10 +48,16 @@ def is_message(value) -> bool:
     return hasattr(value, "get_fields_and_field_types")
 
 
+def _byte(value) -> int:
+    """A single byte field (rclpy gives it as one-byte bytes) as its number."""
+    return value[0] if isinstance(value, (bytes, bytearray)) else int(value)
+
+
 def to_primitive(msg):
     """Nested dict / list / scalar form of a message (for YAML, JSON, tests)."""
     if is_message(msg):
-        return {name: to_primitive(getattr(msg, name)) for name in msg.get_fields_and_field_types()}
+        return {name: _byte(getattr(msg, name)) if kind in ("byte", "octet") else to_primitive(getattr(msg, name))
+                for name, kind in msg.get_fields_and_field_types().items()}
     if isinstance(msg, (list, tuple, array.array)):
         return [to_primitive(v) for v in msg]
     if isinstance(msg, np.ndarray):

@@ -1,8 +1,6 @@
-"""``hexctl topic list|echo|hz|pub``: topic inspection on a wheel-only ROS 2 install.
-
-ros2cli is not on PyPI; these use rclpy's graph API to find topics and their types and
-the generated classes' own field introspection (:mod:`hex_control.nodes.messages`) to
-print and fill messages.
+"""``hexctl topic list|echo|hz|pub``: rclpy's graph API finds topics and their types, the
+generated classes' own introspection (:mod:`hex_control.nodes.messages`) prints and fills
+messages. Echo matches the publishers' QoS (latched ones too) unless told otherwise.
 """
 
 from __future__ import annotations
@@ -10,30 +8,13 @@ from __future__ import annotations
 import math
 import sys
 import time
-from contextlib import contextmanager
 
 import rclpy
 import yaml
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.nodes.messages import fill_message, get_field, message_class, to_primitive
-
-
-@contextmanager
-def _cli_node(name: str):
-    rclpy.init(args=None)
-    node = rclpy.create_node(name, start_parameter_services=False)
-    try:
-        yield node
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-
-
-def _spin_for(node, seconds: float) -> None:
-    end = time.monotonic() + seconds
-    while rclpy.ok() and time.monotonic() < end:
-        rclpy.spin_once(node, timeout_sec=min(0.05, max(end - time.monotonic(), 0.0)))
+from hex_control.ros_cli.common import VerbError, absolute, cli_node, qos_from_options, spin_for, yaml_mapping
 
 
 def _topic_type(node, topic: str, timeout_s: float) -> str:
@@ -43,9 +24,9 @@ def _topic_type(node, topic: str, timeout_s: float) -> str:
         if types:
             return types[0]
         if time.monotonic() >= end:
-            raise SystemExit(f"hexctl: topic {topic!r} not found within {timeout_s:g} s "
-                             "(is the publisher running, with the same ROS_DOMAIN_ID?)")
-        _spin_for(node, 0.1)
+            raise VerbError(f"topic {topic!r} not found within {timeout_s:g} s "
+                            "(is the publisher running, with the same ROS_DOMAIN_ID?)")
+        spin_for(node, 0.1)
 
 
 def _subscription_qos(node, topic: str) -> QoSProfile:
@@ -59,13 +40,9 @@ def _subscription_qos(node, topic: str) -> QoSProfile:
     return qos
 
 
-def _absolute(topic: str) -> str:
-    return topic if topic.startswith("/") else "/" + topic
-
-
 def topic_list(show_types: bool, wait_s: float) -> int:
-    with _cli_node("hexctl_topic_list") as node:
-        _spin_for(node, wait_s)  # let discovery fill the graph
+    with cli_node("hexctl_topic_list") as node:
+        spin_for(node, wait_s)  # let discovery fill the graph
         for name, types in sorted(node.get_topic_names_and_types()):
             if show_types:
                 pubs, subs = node.count_publishers(name), node.count_subscribers(name)
@@ -75,19 +52,21 @@ def topic_list(show_types: bool, wait_s: float) -> int:
     return 0
 
 
-def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float) -> int:
-    topic = _absolute(topic)
-    with _cli_node("hexctl_topic_echo") as node:
+def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float, durability=None, reliability=None,
+               depth=None) -> int:
+    topic = absolute(topic)
+    with cli_node("hexctl_topic_echo") as node:
         cls = message_class(_topic_type(node, topic, timeout_s))
+        qos = qos_from_options(durability, reliability, depth, _subscription_qos(node, topic))
         received = []
 
         def on_message(msg):
             value = get_field(msg, field) if field else msg
-            print(yaml.safe_dump(to_primitive(value), sort_keys=False, default_flow_style=None).rstrip())
+            print(yaml.safe_dump(to_primitive(value), sort_keys=False, default_flow_style=False).rstrip())
             print("---", flush=True)
             received.append(1)
 
-        node.create_subscription(cls, topic, on_message, _subscription_qos(node, topic))
+        node.create_subscription(cls, topic, on_message, qos)
         limit = 1 if once else count
         while rclpy.ok() and (limit <= 0 or len(received) < limit):
             rclpy.spin_once(node, timeout_sec=0.1)
@@ -95,8 +74,8 @@ def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float)
 
 
 def topic_hz(topic: str, window: int, duration_s: float, timeout_s: float) -> int:
-    topic = _absolute(topic)
-    with _cli_node("hexctl_topic_hz") as node:
+    topic = absolute(topic)
+    with cli_node("hexctl_topic_hz") as node:
         cls = message_class(_topic_type(node, topic, timeout_s))
         arrivals: list[float] = []
         node.create_subscription(cls, topic, lambda _m: arrivals.append(time.monotonic()),
@@ -120,24 +99,23 @@ def topic_hz(topic: str, window: int, duration_s: float, timeout_s: float) -> in
     return 0
 
 
-def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: int,
-              wait_s: float) -> int:
-    topic = _absolute(topic)
+def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: int, wait_s: float,
+              durability=None, reliability=None, depth=None) -> int:
+    topic = absolute(topic)
     cls = message_class(type_name)
-    data = yaml.safe_load(values) if values.strip() else {}
     try:
-        msg = fill_message(cls(), data or {})
+        msg = fill_message(cls(), yaml_mapping(values, "the message"))
     except (TypeError, ValueError, AssertionError) as exc:
-        print(f"hexctl: cannot build {type_name} from {values!r}: {exc}", file=sys.stderr)
-        return 2
-    with _cli_node("hexctl_topic_pub") as node:
-        publisher = node.create_publisher(cls, topic, 10)
+        raise VerbError(f"cannot build {type_name} from {values!r}: {exc}") from None
+    qos = qos_from_options(durability, reliability, depth)
+    with cli_node("hexctl_topic_pub") as node:
+        publisher = node.create_publisher(cls, topic, qos)
         end = time.monotonic() + wait_s  # let subscribers match this writer first
         while publisher.get_subscription_count() == 0 and time.monotonic() < end:
-            _spin_for(node, 0.05)
+            spin_for(node, 0.05)
         if publisher.get_subscription_count():
             # this writer can see a reader before the reader sees it: samples sent in between are lost
-            _spin_for(node, 0.5)
+            spin_for(node, 0.5)
         else:
             print(f"hexctl: no subscriber on {topic} after {wait_s:g} s; publishing anyway", file=sys.stderr)
         sent = 0
@@ -146,6 +124,6 @@ def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: in
             sent += 1
             print(f"publishing #{sent}: {to_primitive(msg)}", flush=True)
             if times <= 0 or sent < times:
-                _spin_for(node, 1.0 / rate_hz)
-        _spin_for(node, 0.2)  # let the last message leave before shutdown
+                spin_for(node, 1.0 / rate_hz)
+        spin_for(node, 0.2)  # let the last message leave before shutdown
     return 0

@@ -1,0 +1,4 @@
+"""``hexctl topic|node|param|service|action``: the ros2cli verbs a user of this package needs,
+on a wheel-only ROS 2 install (ros2cli is not on PyPI). One module a verb; the shared
+plumbing (a short-lived node, QoS options, YAML arguments, exit codes) in :mod:`.common`.
+"""
