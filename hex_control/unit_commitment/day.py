@@ -4,9 +4,10 @@ sections 3 and 5).
 Given each hour's total generation G(t) = L(t) + r(t):
 
 - :func:`schedule_from_table`: the paper's way -- each hour one of the table's cheapest
-  commitments of its level (section 4), chosen by dynamic programming over the hours whose
-  state is every unit's hours down, so the starting costs are exact: the cheapest day over
-  the table's candidates;
+  commitments of its level (section 4), or of another hour's level (so that a unit may
+  stay on rather than pay to start again), chosen by dynamic programming over the hours
+  whose state is every unit's hours down, so the starting costs are exact: the cheapest
+  day over those candidates. Of identical units, those down the shortest are the ones on;
 - :func:`exact_schedule`: the peer for small fleets -- dynamic programming over every
   commitment and every unit's hours down (capped at the tables' 6), exact.
 
@@ -94,7 +95,7 @@ class _Starts:
         return tuple(after), cost
 
 
-def _step(fleet: Fleet, down: tuple[int, ...], on: tuple[bool, ...]) -> tuple[tuple[int, ...], float]:
+def hour_step(fleet: Fleet, down: tuple[int, ...], on: tuple[bool, ...]) -> tuple[tuple[int, ...], float]:
     """(the down times after an hour with ``on``, the starting costs paid in it)."""
     return _Starts(fleet).step(down, on)
 

@@ -42,7 +42,7 @@ import numpy as np
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 from hex_control.estimation.identify import identify
 from hex_control.estimation.kalman import OneStepPredictor
-from hex_control.unit_commitment.day import DayPlan, _step, cheapest_transfers, search_commitments, transfer_bounds
+from hex_control.unit_commitment.day import DayPlan, cheapest_transfers, hour_step, search_commitments, transfer_bounds
 from hex_control.unit_commitment.dispatch import economic_dispatch
 from hex_control.unit_commitment.fleet import Fleet
 from hex_control.unit_commitment.storage import Storage
@@ -153,7 +153,7 @@ class OnlineScheduler:
             pass
 
         def score(on):
-            return self._running(on, generation[0]) + _step(self.fleet, self.down, on)[1]
+            return self._running(on, generation[0]) + hour_step(self.fleet, self.down, on)[1]
 
         rest = sorted((on for on in options[0] if on not in ranked), key=score)
         return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
@@ -190,7 +190,7 @@ class OnlineScheduler:
             else:
                 raise ValueError(f"hour {t}: {demand[t]:.0f} MW is beyond every commitment")
             unplanned += rank > 0
-            self.down, start = _step(self.fleet, self.down, on)
+            self.down, start = hour_step(self.fleet, self.down, on)
             running, starting = running + cost, starting + start
             commitments.append(on)
             transfers[t] = r
