@@ -139,6 +139,7 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("directory")
     play.add_argument("--rate", type=float, default=1.0, help="pace relative to the recording")
     play.add_argument("--topics", nargs="*", default=None, help="only these topics")
+    play.add_argument("--wait", type=float, default=0.0, help="first wait this long for subscribers (s)")
     bag = commands.add_parser("bag", help="inspect a recording (ros2 bag info)")
     bag.add_subparsers(dest="verb", required=True).add_parser("info", help="topics, types, counts, duration") \
         .add_argument("directory")
@@ -536,7 +537,7 @@ def main(argv=None) -> int:
         if args.command == "play":
             from hex_control.nodes.recorder import play
 
-            return play(args.directory, args.rate, args.topics)
+            return play(args.directory, args.rate, args.topics, args.wait)
         if args.command == "bag":
             return _bag_info(args.directory)
         if args.command == "unit-commitment":

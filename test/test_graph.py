@@ -42,3 +42,16 @@ def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
     (jobs / "again.jsonl").write_text('{"type": "goal"}\n')
     fresh_job_dir(tmp_path)
     assert (tmp_path / "jobs-2" / "again.jsonl").exists()
+
+
+def test_a_demo_keeps_to_a_domain_of_its_own_unless_one_is_set():
+    """Issue 23 item 4: two demos (or a demo and a user's graph) on one host must not meet."""
+    import os
+
+    from hex_control.nodes.grind_job import use_private_domain
+
+    environment = {}
+    assert use_private_domain(environment)
+    assert 1 <= int(environment["ROS_DOMAIN_ID"]) <= 101 and int(environment["ROS_DOMAIN_ID"]) == 1 + os.getpid() % 101
+    chosen = {"ROS_DOMAIN_ID": "17"}
+    assert not use_private_domain(chosen) and chosen == {"ROS_DOMAIN_ID": "17"}

@@ -115,7 +115,8 @@ def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_en
     from std_msgs.msg import Float64
 
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    publisher = ros.node("latched_publisher").create_publisher(Float64, "/recorded/latched", latched)
+    publishing = ros.node("latched_publisher")
+    publisher = publishing.create_publisher(Float64, "/recorded/latched", latched)
     publisher.publish(Float64(data=42.5))
     hexctl = str(Path(sys.executable).parent / "hexctl")
     out = tmp_path / "rec"
@@ -142,3 +143,11 @@ def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_en
     offered = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert offered["topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"][0]["durability"] \
         == "transient_local"
+    # hexctl play publishes it again, latched as it was offered: a late subscriber gets it
+    publishing.destroy_publisher(publisher)
+    again = ros.collect(Float64, "/recorded/latched", latched)
+    played = subprocess.run([hexctl, "play", str(out), "--wait", "60"], env=ros_env, capture_output=True, text=True,
+                            timeout=120)
+    assert played.returncode == 0 and "played 1 messages on 1 topics" in played.stdout
+    wait_until(lambda: again, 30.0, what="the played message")
+    assert [m.data for m in again] == [42.5]

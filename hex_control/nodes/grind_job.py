@@ -395,10 +395,14 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
             for name, s in (("unshaped", None), ("zvd", shaper))}
 
 
-def private_domain_id() -> int:
-    """A ROS domain for one run, 1..101 (the ids whose ports never clash with the
-    ephemeral range), from the process id: two demos started side by side differ."""
-    return 1 + os.getpid() % 101
+def use_private_domain(environment) -> bool:
+    """Set ``ROS_DOMAIN_ID`` in ``environment`` to a domain for this run unless it is set:
+    1..101 (the ids whose ports never clash with the ephemeral range), from the process id,
+    so two demos started side by side differ. True if it chose one."""
+    if environment.get("ROS_DOMAIN_ID", "").strip():
+        return False
+    environment["ROS_DOMAIN_ID"] = str(1 + os.getpid() % 101)
+    return True
 
 
 def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
@@ -414,8 +418,7 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
 
     from hex_control.grinding.job_report import job_statistics, write_report
 
-    if "ROS_DOMAIN_ID" not in os.environ:
-        os.environ["ROS_DOMAIN_ID"] = str(private_domain_id())
+    if use_private_domain(os.environ):
         print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
               "to run it in yours)")
     out = Path(output)

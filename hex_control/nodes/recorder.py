@@ -14,6 +14,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.nodes.messages import message_class
@@ -116,9 +117,11 @@ def record(output: str, topics, all_topics: bool, duration_s: float | None) -> i
     return 0
 
 
-def play(directory: str, rate: float, topics=None) -> int:
+def play(directory: str, rate: float, topics=None, wait_s: float = 0.0) -> int:
     """``hexctl play``: publish a recording's messages (raw) at ``rate`` times their pace,
-    each topic with the durability and reliability it was offered with."""
+    each topic with the durability and reliability it was offered with; first wait up to
+    ``wait_s`` for every topic to have a subscriber, at the end for the reliable ones to
+    acknowledge what they got."""
     import rclpy
 
     from hex_control.nodes.runtime import init
@@ -139,6 +142,9 @@ def play(directory: str, rate: float, topics=None) -> int:
                          durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
         if topics is None or meta["name"] in topics:
             publishers[meta["name"]] = node.create_publisher(message_class(meta["type"]), meta["name"], qos)
+    end = time.monotonic() + wait_s
+    while time.monotonic() < end and not all(p.get_subscription_count() for p in publishers.values()):
+        stop.wait(0.05)
     played, start_wall, start_bag = 0, time.monotonic(), None
     try:
         for topic, _, data, time_ns in read_messages(directory, list(publishers)):
@@ -150,6 +156,8 @@ def play(directory: str, rate: float, topics=None) -> int:
                 stop.wait(delay)
             publishers[topic].publish(data)
             played += 1
+        for publisher in publishers.values():
+            publisher.wait_for_all_acked(Duration(seconds=5))
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
