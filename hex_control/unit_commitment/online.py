@@ -26,7 +26,8 @@ For white noise the identified a is near 0, so the prediction is the mean: the s
 algorithm with no foresight (the paper substitutes the current fluctuation for the
 prediction in its random model; for independent noise that is no better than the mean).
 
-If the last hours cannot bring the store back exactly, what is left is settled at the
+The mean day's plan keeps a reserve in the store (:func:`reserved_store`); on-line the
+whole store is used. If the last hours cannot bring the store back exactly, what is left is settled at the
 day's mean incremental cost, so every day is charged for the energy it served.
 
 Units: MW, MWh, cost units; fluctuations relative (dimensionless).
@@ -75,6 +76,19 @@ class LoadFluctuation:
             model = GaussMarkovModel(self.a, self.relative_std**2 * (1 - self.a**2), 0.0)
             fluctuation, _ = model.simulate(hours, rng)
         return fluctuation, fluctuation + rng.normal(0.0, self.measurement_std, hours)
+
+
+def reserved_store(storage: Storage, demand_mw, fluctuation: LoadFluctuation, sigmas: float = 3.0,
+                   hours: float = 2.0) -> Storage:
+    """The store the mean day is planned with: its size less a reserve at both ends, the
+    energy of a ``sigmas`` forecast error at the peak for ``hours``, kept for the on-line
+    scheduler. Without it the plan empties the store at the evening peak, and a demand
+    above the prediction there can only be met by starting a unit."""
+    reserve_mwh = sigmas * fluctuation.relative_std * float(np.max(demand_mw)) * hours
+    low, high = storage.s_min_mwh + reserve_mwh, storage.s_max_mwh - reserve_mwh
+    if not low <= storage.s_start_mwh <= high:
+        return storage  # too small a store to hold a reserve back
+    return replace(storage, s_min_mwh=low, s_max_mwh=high)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from tqdm import tqdm
 from hex_control.unit_commitment.day import deterministic_schedule
 from hex_control.unit_commitment.demand import example_day
 from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.online import LoadFluctuation, compare_online
+from hex_control.unit_commitment.online import LoadFluctuation, compare_online, reserved_store
 from hex_control.unit_commitment.plots import plot_day, plot_online, plot_table
 from hex_control.unit_commitment.table import load_table, save_table, scheduling_table
 
@@ -81,12 +81,13 @@ def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, 
     fleet, output = Fleet.from_yaml(fleet_file), Path(output)
     rows, _ = table_for(fleet, output, k, step_mw)
     day = example_day(fleet)
-    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, rows)
     comparisons = []
     summary = {"fleet": fleet.name, "days": days, "history_days": history_days, "relative_std": relative_std,
-               "deterministic_unit_cost": plan.unit_cost, "models": {}}
+               "models": {}}
     for kind in ("uniform", "gauss_markov"):
         fluctuation = LoadFluctuation(kind, relative_std, a)
+        plan = deterministic_schedule(fleet, day.demand_mw, reserved_store(day.storage, day.demand_mw, fluctuation),
+                                      rows)
         with tqdm(total=days, desc=f"on-line {kind}", unit="day") as bar:
             comparison = compare_online(fleet, rows, plan, day.storage, fluctuation, days, np.random.default_rng(seed),
                                         history_days, progress=lambda done, total: bar.update(done - bar.n))
@@ -97,6 +98,7 @@ def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, 
             for name, values in (("over_hindsight", comparison.over_hindsight), ("over_plan", comparison.over_plan))}
         summary["models"][kind]["unplanned_hours"] = comparison.unplanned_hours
         summary["models"][kind]["identified_a"] = comparison.identified.a
+        summary["models"][kind]["deterministic_unit_cost"] = plan.unit_cost
     plot_online(output / f"online_{fleet.name}.png", comparisons)
     (output / f"online_{fleet.name}.summary.json").write_text(json.dumps(summary, indent=2))
     return summary
