@@ -163,7 +163,7 @@ def _parser() -> argparse.ArgumentParser:
     hz.add_argument("topic")
     hz.add_argument("--window", type=int, default=1000, help="messages in the statistics window")
     hz.add_argument("--duration", type=float, default=0.0, help="stop after this many s (0 = never)")
-    hz.add_argument("--timeout", type=float, default=10.0, help="wait for the topic (s)")
+    hz.add_argument("--timeout", type=float, default=10.0, help="wait for the topic and its first message (s)")
     pub = verbs.add_parser("pub", help="publish a message given as YAML")
     pub.add_argument("topic")
     pub.add_argument("type", help="message type, e.g. std_msgs/msg/Float64")

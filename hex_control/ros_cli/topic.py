@@ -80,10 +80,17 @@ def topic_hz(topic: str, window: int, duration_s: float, timeout_s: float) -> in
         arrivals: list[float] = []
         node.create_subscription(cls, topic, lambda _m: arrivals.append(time.monotonic()),
                                  _subscription_qos(node, topic))
-        start = time.monotonic()
-        next_report = start + 1.0
-        while rclpy.ok() and (duration_s <= 0 or time.monotonic() - start < duration_s):
+        # the window starts at the first message: discovery on a busy machine takes its own time
+        subscribed, start = time.monotonic(), None
+        while rclpy.ok() and (duration_s <= 0 or start is None or time.monotonic() - start < duration_s):
             rclpy.spin_once(node, timeout_sec=0.05)
+            if start is None:
+                if arrivals:
+                    start = arrivals[0]
+                    next_report = start + 1.0
+                elif time.monotonic() - subscribed > timeout_s:
+                    raise VerbError(f"no message on {topic} within {timeout_s:g} s")
+                continue
             if time.monotonic() >= next_report:
                 next_report += 1.0
                 recent = arrivals[-window:]
