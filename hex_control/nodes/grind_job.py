@@ -29,7 +29,7 @@ from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
-from hex_control.nodes.interfaces import LATCHED, RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
+from hex_control.nodes.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control.nodes.messages import to_primitive
 from hex_control.nodes.recorder import Recorder
 from hex_control.recording.bag import BagWriter
@@ -43,16 +43,18 @@ class JobObserver(Node):
         super().__init__("grind_job", **kwargs)
         self.record = record
         self.client = ActionClient(self, GrindBead, "sequence_planner/grind_bead")
-        self.create_subscription(ContourMsg, "grinding/contour", self._on_contour, LATCHED)
-        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, LATCHED)
+        # the latched topics keep their last message for late joiners; this reader keeps ten,
+        # so that two arriving while its executor is busy (the recorder shares it) are both seen
+        self.create_subscription(ContourMsg, "grinding/contour", self._on_contour, RESULTS)
+        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, RESULTS)
         # the planner's feedback carries every command too, kept for late joiners: a command
         # topic holds only its last, which a restarted planner may have replaced before it matched
         self.create_subscription(GrindBead.Feedback, "sequence_planner/job_feedback",
                                  lambda feedback: self._on_command(feedback.command), RESULTS)
         self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
-        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED)
+        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, RESULTS)
         self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
-        self.create_subscription(GrindBead.Result, "sequence_planner/job_result", self._on_job_result, LATCHED)
+        self.create_subscription(GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS)
         self.create_subscription(LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM)
         self.job_id = None
         self.job_result = None
