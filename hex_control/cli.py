@@ -182,7 +182,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _ros_verbs(commands) -> None:
-    """hexctl node / param / service / action: ros2cli's verbs (hex_control/ros_cli/)."""
+    """hexctl node / param / service / action: ros2cli's verbs (hex_control/nodes/ros_cli/)."""
     node = commands.add_parser("node", help="nodes of the graph (ros2 node stand-in)").add_subparsers(
         dest="verb", required=True)
     node.add_parser("list", help="list nodes").add_argument("--wait", type=float, default=1.0, help="discovery (s)")
@@ -203,9 +203,7 @@ def _ros_verbs(commands) -> None:
         job.add_argument("--timeout", type=float, default=10.0, help="wait for the node (s)")
     service = commands.add_parser("service", help="services (ros2 service stand-in)").add_subparsers(
         dest="verb", required=True)
-    services = service.add_parser("list", help="list services")
-    services.add_argument("-t", "--show-types", action="store_true")
-    services.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    _list_verb(service, "services")
     call = service.add_parser("call", help="call a service with a YAML request")
     call.add_argument("service")
     call.add_argument("type", help="e.g. hex_control_msgs/srv/InverseKinematics")
@@ -214,9 +212,7 @@ def _ros_verbs(commands) -> None:
     call.add_argument("--no-resend", action="store_true", help="send once (for a service that must not run twice)")
     action = commands.add_parser("action", help="actions (ros2 action stand-in)").add_subparsers(
         dest="verb", required=True)
-    actions = action.add_parser("list", help="list actions")
-    actions.add_argument("-t", "--show-types", action="store_true")
-    actions.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    _list_verb(action, "actions")
     goal = action.add_parser("send_goal", help="send a goal; Ctrl-C cancels it")
     goal.add_argument("action", help="e.g. /sequence_planner/grind_bead")
     goal.add_argument("type", help="e.g. hex_control_msgs/action/GrindBead")
@@ -225,9 +221,15 @@ def _ros_verbs(commands) -> None:
     goal.add_argument("--timeout", type=float, default=30.0, help="wait for the server and its answers (s)")
 
 
+def _list_verb(verbs, what: str) -> None:
+    listing = verbs.add_parser("list", help=f"list {what}")
+    listing.add_argument("-t", "--show-types", action="store_true")
+    listing.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+
+
 def _ros_verb(args) -> int:
     if args.command == "topic":
-        from hex_control.ros_cli import topic
+        from hex_control.nodes.ros_cli import topic
 
         if args.verb == "list":
             return topic.topic_list(args.show_types, args.wait)
@@ -239,11 +241,11 @@ def _ros_verb(args) -> int:
         return topic.topic_pub(args.topic, args.type, args.values, args.rate, 1 if args.once else args.times,
                                args.wait, args.qos_durability, args.qos_reliability, args.qos_depth)
     if args.command == "node":
-        from hex_control.ros_cli import node
+        from hex_control.nodes.ros_cli import node
 
         return node.node_list(args.wait) if args.verb == "list" else node.node_info(args.node, args.wait)
     if args.command == "param":
-        from hex_control.ros_cli import param
+        from hex_control.nodes.ros_cli import param
 
         if args.verb in ("list", "dump"):
             return getattr(param, f"param_{args.verb}")(args.node, args.timeout)
@@ -251,12 +253,12 @@ def _ros_verb(args) -> int:
             return param.param_set(args.node, args.name, args.value, args.timeout)
         return getattr(param, f"param_{args.verb}")(args.node, args.name, args.timeout)
     if args.command == "service":
-        from hex_control.ros_cli import service
+        from hex_control.nodes.ros_cli import service
 
         if args.verb == "list":
             return service.service_list(args.show_types, args.wait)
         return service.service_call(args.service, args.type, args.values, args.timeout, not args.no_resend)
-    from hex_control.ros_cli import action
+    from hex_control.nodes.ros_cli import action
 
     if args.verb == "list":
         return action.action_list(args.show_types, args.wait)
@@ -553,7 +555,7 @@ def main(argv=None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as exc:
-        from hex_control.ros_cli.common import VerbError
+        from hex_control.nodes.ros_cli.common import VerbError
 
         if isinstance(exc, VerbError):
             if exc.code != 130:

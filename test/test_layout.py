@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 ROS_MODULES = ("rclpy", "hex_control_msgs", "std_msgs", "geometry_msgs", "sensor_msgs",
                "diagnostic_msgs", "trajectory_msgs", "rcl_interfaces", "rosgraph_msgs")
-ROS_ALLOWED = ("hex_control/nodes/", "hex_control/cli.py", "hex_control/ros_cli/")
+ROS_ALLOWED = ("hex_control/nodes/", "hex_control/cli.py")
 
 
 def imported_modules(path: Path) -> set[str]:

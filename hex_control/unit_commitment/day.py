@@ -100,7 +100,9 @@ def hour_step(fleet: Fleet, down: tuple[int, ...], on: tuple[bool, ...]) -> tupl
     return _Starts(fleet).step(down, on)
 
 
-def _running(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
+def running_cost(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
+    """The running cost per hour of ``on`` at the economic dispatch of ``total_mw``; inf if
+    its units cannot generate it."""
     try:  # the dispatch refuses a total its units cannot generate
         return economic_dispatch([u for u, state in zip(fleet.units, on) if state], total_mw).cost_per_h
     except ValueError:
@@ -120,7 +122,7 @@ def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ..
     states = {start: (0.0, 0.0, None)}  # down times -> (total, starting, path) of the cheapest day into them
     for t, total in enumerate(generation_mw):
         following = {}
-        costs = [(on, _running(fleet, on, float(total))) for on in options(t)]
+        costs = [(on, running_cost(fleet, on, float(total))) for on in options(t)]
         costs = [(on, cost) for on, cost in costs if np.isfinite(cost)]
         for down, (day_cost, starting, path) in states.items():
             for on, cost in costs:

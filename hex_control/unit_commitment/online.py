@@ -43,7 +43,14 @@ import numpy as np
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 from hex_control.estimation.identify import identify
 from hex_control.estimation.kalman import OneStepPredictor
-from hex_control.unit_commitment.day import DayPlan, cheapest_transfers, hour_step, search_commitments, transfer_bounds
+from hex_control.unit_commitment.day import (
+    DayPlan,
+    cheapest_transfers,
+    hour_step,
+    running_cost,
+    search_commitments,
+    transfer_bounds,
+)
 from hex_control.unit_commitment.dispatch import economic_dispatch
 from hex_control.unit_commitment.fleet import Fleet
 from hex_control.unit_commitment.storage import Storage
@@ -132,12 +139,6 @@ class OnlineScheduler:
         owed = float(np.clip(self.storage.s_start_mwh - self.stored_mwh, lower.sum(), upper.sum()))
         return cheapest_transfers(self.fleet, commitments, demand, store, owed)
 
-    def _running(self, on, total_mw) -> float:
-        try:
-            return economic_dispatch([u for u, x in zip(self.fleet.units, on) if x], total_mw).cost_per_h
-        except ValueError:
-            return math.inf
-
     def _options(self, generation_mw: float, *extra) -> list[tuple[bool, ...]]:
         levels = self.table[0].total_mw, self.table[-1].total_mw
         options = candidates_at(self.table, float(np.clip(generation_mw, *levels)))
@@ -167,7 +168,7 @@ class OnlineScheduler:
             pass
 
         def score(on):
-            return self._running(on, generation[0]) + hour_step(self.fleet, self.down, on)[1]
+            return running_cost(self.fleet, on, generation[0]) + hour_step(self.fleet, self.down, on)[1]
 
         rest = sorted((on for on in options[0] if on not in ranked), key=score)
         return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
@@ -198,7 +199,7 @@ class OnlineScheduler:
                     r = float(np.clip(r, lower[0], upper[0]))
                 except ValueError:
                     continue
-                cost = self._running(on, demand[t] + r)
+                cost = running_cost(self.fleet, on, demand[t] + r)
                 if math.isfinite(cost):
                     break
             else:

@@ -14,7 +14,7 @@ from rcl_interfaces.msg import ParameterType
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 
-from hex_control.ros_cli.common import VerbError, cli_node, spin_until
+from hex_control.nodes.ros_cli.common import VerbError, cli_node, spin_until
 
 RESEND_S = 2.0
 _TYPES = {value: name.removeprefix("PARAMETER_").lower() for name, value in vars(ParameterType).items()

@@ -14,7 +14,7 @@ import yaml
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.nodes.messages import fill_message, get_field, message_class, to_primitive
-from hex_control.ros_cli.common import VerbError, absolute, cli_node, qos_from_options, spin_for, yaml_mapping
+from hex_control.nodes.ros_cli.common import VerbError, absolute, cli_node, qos_from_options, spin_for, yaml_mapping
 
 
 def _topic_type(node, topic: str, timeout_s: float) -> str:

@@ -7,6 +7,8 @@ aborted); 2 bad input or nothing to talk to within the timeout; 130 interrupted.
 
 from __future__ import annotations
 
+import importlib
+import re
 import time
 from contextlib import contextmanager
 
@@ -14,6 +16,8 @@ import rclpy
 import yaml
 from rclpy.executors import ExternalShutdownException
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from hex_control.nodes.messages import fill_message
 
 DURABILITY = {"volatile": DurabilityPolicy.VOLATILE, "transient_local": DurabilityPolicy.TRANSIENT_LOCAL}
 RELIABILITY = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT}
@@ -84,6 +88,30 @@ def yaml_mapping(text: str, what: str) -> dict:
     if not isinstance(value, dict):
         raise VerbError(f"{what} must be a YAML mapping of fields, got {text!r}")
     return value
+
+
+def interface_class(type_name: str, kind: str, part: str):
+    """The class of a ``pkg/<kind>/Name`` (or ``pkg/Name``) interface, ``kind`` "srv" or
+    "action", checked to have ``part`` (Request, Goal)."""
+    parts = re.split(r"[/.]", type_name.strip())
+    if len(parts) == 2:
+        parts = [parts[0], kind, parts[1]]
+    try:
+        cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
+    except (ImportError, AttributeError, IndexError):
+        raise VerbError(f"unknown {kind} type {type_name!r} (want pkg/{kind}/Name)") from None
+    if not hasattr(cls, part):
+        raise VerbError(f"{type_name!r} is no {kind} type (it has no {part})")
+    return cls
+
+
+def interface_message(type_name: str, kind: str, part: str, values: str):
+    """(the interface class, its ``part`` filled from the YAML ``values``)."""
+    cls = interface_class(type_name, kind, part)
+    try:
+        return cls, fill_message(getattr(cls, part)(), yaml_mapping(values, f"the {part.lower()}"))
+    except (TypeError, ValueError, AssertionError) as exc:
+        raise VerbError(f"cannot build the {part.lower()} of {type_name} from {values!r}: {exc}") from None
 
 
 def absolute(name: str) -> str:

@@ -5,33 +5,17 @@ rejected, aborted or canceled, 2 when no server answered."""
 
 from __future__ import annotations
 
-import importlib
-import re
-
 import rclpy
 import yaml
 from action_msgs.msg import GoalStatus
 from rclpy.action import ActionClient, get_action_names_and_types
 
 from hex_control.nodes.action_probe import ResponseProbe
-from hex_control.nodes.messages import fill_message, to_primitive
-from hex_control.ros_cli.common import VerbError, absolute, spin_for, spin_until, yaml_mapping
+from hex_control.nodes.messages import to_primitive
+from hex_control.nodes.ros_cli.common import absolute, interface_message, spin_for, spin_until
 
 STATUS = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_CANCELED: "CANCELED",
           GoalStatus.STATUS_ABORTED: "ABORTED"}
-
-
-def action_class(type_name: str):
-    parts = re.split(r"[/.]", type_name.strip())
-    if len(parts) == 2:
-        parts = [parts[0], "action", parts[1]]
-    try:
-        cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
-    except (ImportError, AttributeError, IndexError):
-        raise VerbError(f"unknown action type {type_name!r} (want pkg/action/Name)") from None
-    if not hasattr(cls, "Goal"):
-        raise VerbError(f"{type_name!r} is not an action type")
-    return cls
 
 
 def action_list(show_types: bool, wait_s: float) -> int:
@@ -53,11 +37,7 @@ def _print(title: str, msg) -> None:
 
 
 def send_goal(action: str, type_name: str, values: str, feedback: bool, timeout_s: float) -> int:
-    cls = action_class(type_name)
-    try:
-        goal = fill_message(cls.Goal(), yaml_mapping(values, "the goal"))
-    except (TypeError, ValueError, AssertionError) as exc:
-        raise VerbError(f"cannot build the goal of {type_name} from {values!r}: {exc}") from None
+    cls, goal = interface_message(type_name, "action", "Goal", values)
     # our own Ctrl-C: the context must outlive it, to send the cancel
     rclpy.init(args=None, signal_handler_options=rclpy.SignalHandlerOptions.NO)
     node = rclpy.create_node("hexctl_action_send_goal", start_parameter_services=False)

@@ -1,31 +1,20 @@
 """``hexctl service list|call``. A call is resent while unanswered (see
-:mod:`hex_control.ros_cli.param`) unless ``--no-resend``: give that for a service that must
+:mod:`hex_control.nodes.ros_cli.param`) unless ``--no-resend``: give that for a service that must
 not run twice."""
 
 from __future__ import annotations
 
-import importlib
-import re
-
 import yaml
 
-from hex_control.nodes.messages import fill_message, to_primitive
-from hex_control.ros_cli.common import VerbError, absolute, cli_node, spin_for, spin_until, yaml_mapping
-from hex_control.ros_cli.param import answer
-
-
-def service_class(type_name: str):
-    """The class of ``pkg/srv/Name``."""
-    parts = re.split(r"[/.]", type_name.strip())
-    if len(parts) == 2:
-        parts = [parts[0], "srv", parts[1]]
-    try:
-        cls = getattr(importlib.import_module(f"{parts[0]}.{parts[1]}"), parts[2])
-    except (ImportError, AttributeError, IndexError):
-        raise VerbError(f"unknown service type {type_name!r} (want pkg/srv/Name)") from None
-    if not hasattr(cls, "Request"):
-        raise VerbError(f"{type_name!r} is not a service type")
-    return cls
+from hex_control.nodes.messages import to_primitive
+from hex_control.nodes.ros_cli.common import (
+    absolute,
+    cli_node,
+    interface_message,
+    spin_for,
+    spin_until,
+)
+from hex_control.nodes.ros_cli.param import answer
 
 
 def service_list(show_types: bool, wait_s: float) -> int:
@@ -37,11 +26,7 @@ def service_list(show_types: bool, wait_s: float) -> int:
 
 
 def service_call(service: str, type_name: str, values: str, timeout_s: float, resend: bool) -> int:
-    cls = service_class(type_name)
-    try:
-        request = fill_message(cls.Request(), yaml_mapping(values, "the request"))
-    except (TypeError, ValueError, AssertionError) as exc:
-        raise VerbError(f"cannot build the request of {type_name} from {values!r}: {exc}") from None
+    cls, request = interface_message(type_name, "srv", "Request", values)
     service = absolute(service)
     with cli_node("hexctl_service_call") as node:
         client = node.create_client(cls, service)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rclpy.action import get_action_client_names_and_types_by_node, get_action_server_names_and_types_by_node
 
-from hex_control.ros_cli.common import VerbError, cli_node, spin_for
+from hex_control.nodes.ros_cli.common import VerbError, cli_node, spin_for
 
 
 def _nodes(node) -> list[str]:
