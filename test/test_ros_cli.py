@@ -62,12 +62,14 @@ def test_param_verbs_read_and_set_a_running_nodes_parameters(shaper, ros_env):
 
 
 def test_node_and_service_verbs(shaper, ros_env):
-    nodes = hexctl(ros_env, "node", "list", "--wait", "2").stdout.split()
-    assert "/cli/input_shaper" in nodes
-    info = hexctl(ros_env, "node", "info", "/cli/input_shaper", "--wait", "2").stdout
+    # each verb discovers the graph afresh: on a loaded machine ask again until it has
+    wait_until(lambda: "/cli/input_shaper" in hexctl(ros_env, "node", "list").stdout.split(), 60.0,
+               what="the node in node list")
+    info = wait_until(lambda: (lambda out: out if "/cli/motion/tool_path: " in out else "")(
+        hexctl(ros_env, "node", "info", "/cli/input_shaper").stdout), 60.0, what="node info")
     assert "    /cli/motion/tool_path: hex_control_msgs/msg/ToolPath" in info.split("  Subscribers:")[1]
-    services = hexctl(ros_env, "service", "list", "-t", "--wait", "2").stdout
-    assert "/cli/input_shaper/get_parameters [rcl_interfaces/srv/GetParameters]" in services
+    wait_until(lambda: "/cli/input_shaper/get_parameters [rcl_interfaces/srv/GetParameters]"
+               in hexctl(ros_env, "service", "list", "-t").stdout, 60.0, what="the service in service list")
     called = hexctl(ros_env, "service", "call", "/cli/input_shaper/get_parameters", "rcl_interfaces/srv/GetParameters",
                     "{names: [shaper]}")
     assert called.returncode == 0 and "string_value: zvd" in called.stdout
