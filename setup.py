@@ -28,6 +28,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/config/machines", glob("config/machines/*.yaml")),
         (f"share/{PACKAGE}/config/unit_commitment", glob("config/unit_commitment/*.yaml")),
+        (f"share/{PACKAGE}/config/milling", glob("config/milling/*.yaml")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

@@ -130,6 +130,11 @@ def _parser() -> argparse.ArgumentParser:
             job.add_argument("--a", type=float, default=0.8, help="Gauss-Markov coefficient per hour")
             job.add_argument("--seed", type=int, default=0)
 
+    chatter = commands.add_parser("chatter", help="seed 004 section 3: chatter in slender ball-end milling, "
+                                  "spindle-speed programmes and stability lobes (PNG, JSON)")
+    chatter.add_argument("--case", default="chatter.yaml", help="case file (config/milling/ or a path)")
+    chatter.add_argument("--output", default="output/chatter")
+
     record = commands.add_parser("record", help="record topics into rosbag2's MCAP layout (ros2 bag record)")
     record.add_argument("topics", nargs="*", help="topics to record")
     record.add_argument("-a", "--all", action="store_true", help="every topic, as it appears (hidden ones not)")
@@ -505,6 +510,26 @@ def _unit_commitment(args) -> int:
     return 0
 
 
+def _chatter(args) -> int:
+    from tqdm import tqdm
+
+    from hex_control.milling.case import ChatterCase
+    from hex_control.milling.study import write_study
+
+    case = ChatterCase.from_yaml(args.case)
+    with tqdm(total=len(case.programmes()) + 1, desc="chatter", unit="run") as bar:
+        summary = write_study(args.output, case, progress=lambda done: (bar.set_postfix_str(done), bar.update(1)))
+    print(f"tool's first bending mode {summary['first_mode_hz']:.0f} Hz, a_p = {1e3 * summary['depth_m']:.3f} mm")
+    print(summary["table"])
+    for speed, row in summary["lobes"].items():
+        print(f"{speed} rev/min: lobe limit {1e3 * row['zero_order_limit_m']:.4f} mm (zero-order), "
+              f"{1e3 * row['semi_discretization_limit_m']:.4f} mm (semi-discretization); at the chosen depth the "
+              f"Floquet radius is {row['spectral_radius_at_chosen_depth']:.4f} "
+              f"({'unstable' if row['spectral_radius_at_chosen_depth'] > 1 else 'stable'})")
+    print(f"wrote {args.output}/chatter_spectra.png, chatter_programmes.png, chatter_lobes.png, chatter.json")
+    return 0
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
@@ -544,6 +569,8 @@ def main(argv=None) -> int:
             return _bag_info(args.directory)
         if args.command == "unit-commitment":
             return _unit_commitment(args)
+        if args.command == "chatter":
+            return _chatter(args)
         if args.command == "bench":
             from hex_control.bench import run_benchmarks
 

@@ -1,0 +1,64 @@
+"""Seed 004 Fig. 2-3 as numbers: each spindle programme's displacement spectrum, its chatter
+peak and its RMS displacement along x_e2 (the y axis here, normal to the feed), relative to
+constant 15 000 rev/min."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hex_control.milling.case import ChatterCase
+from hex_control.milling.simulation import MillingRecord, MillingSimulator
+
+
+def displacement_spectrum(record: MillingRecord, settle_s: float, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """(frequency Hz, single-sided amplitude m) of the tip deflection after ``settle_s``,
+    mean removed, Hann window (amplitude-corrected)."""
+    y = record.deflection_m[record.time_s >= settle_s, axis]
+    y = y - y.mean()
+    window = np.hanning(y.size)
+    return np.fft.rfftfreq(y.size, record.step_s), 2 * np.abs(np.fft.rfft(y * window)) / window.sum()
+
+
+@dataclass(frozen=True)
+class ProgrammeResult:
+    name: str
+    rms_m: float
+    chatter_peak_m: float
+    chatter_hz: float
+    speed_range_rpm: tuple[float, float]
+    record: MillingRecord
+
+
+def run_programme(case: ChatterCase, name: str, programme) -> ProgrammeResult:
+    record = MillingSimulator(case.modes, case.cut, case.step_s).run(programme, case.duration_s)
+    frequency, amplitude = displacement_spectrum(record, case.settle_s)
+    band = (frequency >= case.chatter_band_hz[0]) & (frequency <= case.chatter_band_hz[1])
+    peak = int(np.argmax(np.where(band, amplitude, -1.0)))
+    y = record.deflection_m[record.time_s >= case.settle_s, 1]
+    return ProgrammeResult(name, float(np.std(y)), float(amplitude[peak]), float(frequency[peak]),
+                           (float(record.speed_rpm.min()), float(record.speed_rpm.max())), record)
+
+
+def compare_programmes(case: ChatterCase, names=None, progress=None) -> list[ProgrammeResult]:
+    """Every programme of the case (or ``names``); ``progress(name)`` after each run."""
+    programmes = case.programmes()
+    results = []
+    for name in names or programmes:
+        results.append(run_programme(case, name, programmes[name]))
+        if progress:
+            progress(name)
+    return results
+
+
+def programme_table(results: list[ProgrammeResult], reference: str = "constant 15000") -> str:
+    """The per-programme table, RMS and chatter peak also in % of the reference (Fig. 3's way)."""
+    base = next(r for r in results if r.name == reference)
+    lines = [f"{'programme':16s} {'speed rev/min':>15s} {'RMS um':>8s} {'% ref':>6s} {'peak um':>8s} {'% ref':>6s} "
+             f"{'at Hz':>6s}"]
+    for r in results:
+        lines.append(f"{r.name:16s} {r.speed_range_rpm[0]:7.0f}-{r.speed_range_rpm[1]:<7.0f} {r.rms_m * 1e6:8.2f} "
+                     f"{100 * r.rms_m / base.rms_m:6.0f} {r.chatter_peak_m * 1e6:8.2f} "
+                     f"{100 * r.chatter_peak_m / base.chatter_peak_m:6.0f} {r.chatter_hz:6.1f}")
+    return "\n".join(lines)
