@@ -135,6 +135,17 @@ def _parser() -> argparse.ArgumentParser:
     chatter.add_argument("--case", default="chatter.yaml", help="case file (config/milling/ or a path)")
     chatter.add_argument("--output", default="output/chatter")
 
+    platform = commands.add_parser("platform", help="seed 004 section 4: the two-wheeled platform, energy-index "
+                                   "control against two PIDs (PNG, JSON)")
+    platform_verbs = platform.add_subparsers(dest="verb", required=True)
+    for verb, text in (("compare", "both controllers on Fig. 7's and Fig. 10's paths, as modelled and loaded"),
+                       ("tune", "tune both controllers by the same ITAE minimization (prints the gains)")):
+        job = platform_verbs.add_parser(verb, help=text)
+        job.add_argument("--case", default="platform.yaml", help="case file (config/mobile_platform/ or a path)")
+        job.add_argument("--output", default="output/platform")
+        if verb == "tune":
+            job.add_argument("--iterations-per-gain", type=int, default=40, help="Nelder-Mead iterations per gain")
+
     record = commands.add_parser("record", help="record topics into rosbag2's MCAP layout (ros2 bag record)")
     record.add_argument("topics", nargs="*", help="topics to record")
     record.add_argument("-a", "--all", action="store_true", help="every topic, as it appears (hidden ones not)")
@@ -530,6 +541,36 @@ def _chatter(args) -> int:
     return 0
 
 
+def _platform(args) -> int:
+    from pathlib import Path
+
+    import yaml
+    from tqdm import tqdm
+
+    from hex_control.mobile_platform import study, tuning
+    from hex_control.mobile_platform.case import PlatformCase
+
+    case = PlatformCase.from_yaml(args.case)
+    if args.verb == "compare":
+        runs = len(study.PATHS) * len(case.tuning_plants) * len(study.CONTROLLERS)
+        with tqdm(total=runs, desc="platform", unit="run") as bar:
+            summary = study.write_study(args.output, case, lambda done: (bar.set_postfix_str(done), bar.update(1)))
+        print(summary["table"])
+        print(f"wrote {args.output}/platform_path_fig7.png, platform_path_fig10.png, platform_heading_fig7.png, "
+              "platform_heading_fig10.png, platform.json")
+        return 0
+    tuned = {}
+    for name, tune in (("energy_index", tuning.tune_energy_index), ("two_pid", tuning.tune_two_pid)):
+        with tqdm(desc=f"tuning {name}", unit="run") as bar:
+            tuned[name], itae = tune(case, args.iterations_per_gain, progress=lambda: bar.update(1))
+        print(f"{name}: ITAE {itae:.3e} m s^2 (summed over the tuning plants)")
+    Path(args.output).mkdir(parents=True, exist_ok=True)
+    text = yaml.safe_dump(tuned, default_flow_style=None, sort_keys=False)
+    (Path(args.output) / "tuned.yaml").write_text(text)
+    print(text + f"wrote {args.output}/tuned.yaml (copy it into the case file's energy_index / two_pid)")
+    return 0
+
+
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
@@ -571,6 +612,8 @@ def main(argv=None) -> int:
             return _unit_commitment(args)
         if args.command == "chatter":
             return _chatter(args)
+        if args.command == "platform":
+            return _platform(args)
         if args.command == "bench":
             from hex_control.bench import run_benchmarks
 

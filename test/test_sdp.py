@@ -1,5 +1,6 @@
 """Sequence planner by stochastic dynamic programming (seed 002 chapter 5)."""
 
+import itertools
 import math
 
 import numpy as np
@@ -17,6 +18,7 @@ from hex_control.grinding.sdp import (
     PlannerGrid,
     Policy,
     build_controls,
+    feed_values,
     solve,
 )
 from hex_control.grinding.sdp_reference import solve_reference
@@ -298,3 +300,40 @@ def test_the_shipped_planner_expects_what_its_jobs_cost():
     costs = np.array([run_job(policy, process, charges, cut_model, t0, x0, rng).total_charge for _ in range(3000)])
     standard_error = costs.std() / math.sqrt(len(costs))
     assert abs(costs.mean() - policy.expected_penalty(t0, x0)) < 3 * standard_error + 0.02
+
+
+def test_rule_5_where_it_applies_and_the_seeds_indifference_where_it_does_not():
+    """Section 5.4 rule 5 (far from the target: maximum force, slowest feed), checked at
+    X = 1.9 mm. There the policy holds the maximum force at every stage, but its feed is
+    10.7 / 15 / 5 / 8.3 mm/s at t = 60 / 80 / 100 / 118 s, the slowest only at 100 s. The
+    reasons are the thesis's own words on Fig. 5-20:
+    - t = 100 s: unreachable (the two longest passes that fit remove 1.70 mm), and no single
+      pass ends at the deadline: rule 5, slowest feed.
+    - t = 60 and 80 s: the sub-region where "the planner is almost indifferent to the choice
+      of feedspeed". The feeds' expected penalties lie within 0.1 % of each other, and the
+      tie rule takes the first of them.
+    - t = 118 s: the 62 s and 54 s passes remove 1.99 mm > 1.9 mm, so the target is
+      reachable. Rules 1-2 apply, not rule 5."""
+    controls = build_controls(PROCESS, PlannerGrid(), CutDepthModel())
+    slowest = len(controls.feeds_mm_s) - 1
+    for t in (60.0, 80.0, 100.0, 118.0):
+        assert POLICY.force_n[stage(t), column(1.9)] == PROCESS.force_max_n
+    assert POLICY.feed_mm_s[stage(100.0), column(1.9)] == pytest.approx(controls.feeds_mm_s[slowest])
+    for t in (60.0, 80.0):
+        values = feed_values(POLICY, controls, CutDepthModel(), t, 1.9)
+        assert np.nanmax(values) - np.nanmin(values) < 1e-3 * POLICY.penalty[stage(t), column(1.9)]
+    values = feed_values(POLICY, controls, CutDepthModel(), 100.0, 1.9)  # not indifferent: slowest by far
+    assert np.nanargmin(values) == slowest and np.nanmax(values) > 1.1 * np.nanmin(values)
+    durations_s = controls.duration_stages * PlannerGrid().time_step_s
+    depths_mm = PROCESS.cut_depth_mm(PROCESS.force_max_n, controls.feeds_mm_s)
+
+    def most_removed_mm(t):  # the deepest mean removal of up to three passes that fit in t
+        best = 0.0
+        for passes in itertools.product(range(-1, len(durations_s)), repeat=3):
+            chosen = [p for p in passes if p >= 0]
+            if sum(durations_s[chosen]) <= t:
+                best = max(best, float(sum(depths_mm[chosen])))
+        return best
+
+    assert most_removed_mm(100.0) == pytest.approx(1.70, abs=0.01)
+    assert most_removed_mm(118.0) == pytest.approx(1.99, abs=0.01)

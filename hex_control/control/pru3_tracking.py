@@ -14,7 +14,7 @@ ITAE gain optimization.
 The loop is digital: the torque is computed every ``control_period_s`` from the sampled
 state and held (zero-order hold) while the forward dynamics are integrated by RK4 over
 the period. The motion starts at rest at the path's first point, so the velocity jump of
-the seed's circular path is what the controllers must take up.
+the seed's circular path is what the controllers must take up (``start_on_path`` removes it).
 
 Error measures as in Tables 1-4: IAE = integral of |error| dt per axis, of the tracking
 error and of the contour error (task space: z mm, alpha and beta rad; link space: mm).
@@ -117,10 +117,12 @@ def track(strategy: str, gains: Gains | None = None, **options) -> TrackingRun:
 
 
 def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0, control_period_s: float = 1e-3,
-                geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia()) -> list[TrackingRun]:
+                geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
+                start_on_path: bool = False) -> list[TrackingRun]:
     """Run several (strategy, gains) machines side by side along ``path``: one batched
     dynamics evaluation serves them all. A machine that leaves the workspace or diverges
-    raises FloatingPointError."""
+    raises FloatingPointError. The machines start at rest at the path's first point, or with
+    ``start_on_path`` already moving with it (no start transient)."""
     strategies, gains = list(strategies), list(gains)
     unknown = set(strategies) - set(STRATEGIES)
     if unknown or len(strategies) != len(gains) or not strategies:
@@ -130,7 +132,7 @@ def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0,
     kp, kv, kc = (np.array([getattr(g, name) for g in gains])[:, None] for name in ("proportional", "derivative",
                                                                                      "contour"))
     steps = int(round(duration_s / control_period_s))
-    q, q_dot = np.tile(path(0.0)[0], (n, 1)), np.zeros((n, 3))
+    q, q_dot = np.tile(path(0.0)[0], (n, 1)), np.tile(path(0.0)[1] if start_on_path else np.zeros(3), (n, 1))
     rows = {k: [] for k in ("t", "q", "qd", "L", "Ld", "tau")}
     for k in range(steps + 1):
         t = k * control_period_s

@@ -375,6 +375,24 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
     return Policy(times, x, action, best_force, feed, duration, cut, penalty, metadata)
 
 
+def feed_values(policy: Policy, controls: Controls, cut_model: CutDepthModel, time_remaining_s: float,
+                material_mm: float, force_index: int = -1) -> np.ndarray:
+    """E[J*] after one pass from the node at (t, X) with the force ``controls.forces_n[force_index]``,
+    per feed (NaN where the pass does not fit or is infeasible), before the per-pass charge: how
+    much the planner cares which feed it takes there."""
+    k, i = policy.stage_index(time_remaining_s), int(np.argmin(np.abs(policy.material_mm - material_mm)))
+    step = float(policy.material_mm[1] - policy.material_mm[0])
+    values = np.full(len(controls.feeds_mm_s), np.nan)
+    for v, duration in enumerate(controls.duration_stages):
+        if k - duration < 0 or not controls.feasible[force_index, v]:
+            continue
+        mean, std = controls.mean_cut_mm[force_index, v], controls.cut_std_mm[force_index, v]
+        offsets = transition_offsets(cut_model, mean, std, step)
+        landing = policy.penalty[k - duration][np.clip(i - offsets, 0, len(policy.material_mm) - 1)]
+        values[v] = transition_weights(cut_model, mean, std, step, offsets) @ landing
+    return values
+
+
 def _store(per_feed: list[np.ndarray], rows, spectra: list[np.ndarray]) -> None:
     for table, values in zip(per_feed, spectra):
         table[rows] = values

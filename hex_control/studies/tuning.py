@@ -1,5 +1,6 @@
 """Gain tuning by simulation: the ITAE criterion of seed 001 section 3.2, sum |e_k| t_k dt,
-minimized over the PI gains of the force loop (Nelder-Mead on log-gains, so they stay > 0)."""
+minimized over a controller's gains (Nelder-Mead on log-gains, so they stay > 0): the PI
+gains of the force loop here, the platform's controllers in mobile_platform.tuning."""
 
 from __future__ import annotations
 
@@ -36,10 +37,19 @@ def step_itae(kp: float, ki: float, parameters: ForceTableParameters, period_s: 
 def tune_pi_itae(parameters: ForceTableParameters, period_s: float, force_n: float, duration_s: float,
                  initial=(0.002, 0.05), start_mm: float = -1.0) -> tuple[float, float, float]:
     """(kp, ki, itae) minimizing the step ITAE, from ``initial``."""
-    def cost(log_gains):
-        return step_itae(math.exp(log_gains[0]), math.exp(log_gains[1]), parameters, period_s, force_n,
-                         duration_s, start_mm)
+    (kp, ki), value = minimize_itae(lambda gains: step_itae(gains[0], gains[1], parameters, period_s, force_n,
+                                                            duration_s, start_mm), initial)
+    return kp, ki, value
 
-    result = minimize(cost, np.log(initial), method="Nelder-Mead", options={"xatol": 1e-3, "fatol": 1e-6,
-                                                                           "maxiter": 200})
-    return math.exp(result.x[0]), math.exp(result.x[1]), float(result.fun)
+
+def minimize_itae(itae_of, initial, iterations_per_gain: int = 100) -> tuple[tuple[float, ...], float]:
+    """(gains, ITAE): Nelder-Mead on the logarithms of positive gains from ``initial``, with
+    ``iterations_per_gain`` x len(initial) iterations at most; ``itae_of(gains)`` runs the
+    loop. The project's one tuning method, for any controller."""
+    def cost(log_gains):
+        value = itae_of(tuple(math.exp(g) for g in log_gains))
+        return value if math.isfinite(value) else math.inf
+
+    result = minimize(cost, np.log(initial), method="Nelder-Mead",
+                      options={"xatol": 1e-3, "fatol": 1e-6, "maxiter": iterations_per_gain * len(initial)})
+    return tuple(math.exp(g) for g in result.x), float(result.fun)

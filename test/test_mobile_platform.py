@@ -1,0 +1,115 @@
+"""Seed 004 section 4: the two-wheeled mobile platform, its dynamics (Appell-Gibbs, shown
+equal to Lagrange with multipliers), the path of Fig. 7 and 10, the correcting velocities
+of eq. 19, the energy-index command of eq. 20-21 against two PIDs (Fig. 8, 10-11)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from hex_control.mobile_platform.case import PlatformCase
+from hex_control.mobile_platform.control import PlatformState, commanded_motion
+from hex_control.mobile_platform.model import appell_gibbs_accelerations, lagrange_accelerations
+from hex_control.mobile_platform.path import curvature, path_length
+from hex_control.mobile_platform.simulation import _rk4_step, simulate_platform
+
+CASE = PlatformCase.from_yaml()
+MODEL = CASE.model
+
+
+def test_appell_gibbs_equations_equal_lagrange_with_multipliers():
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        beta, v, w = rng.uniform(-math.pi, math.pi), rng.uniform(-0.5, 0.5), rng.uniform(-2, 2)
+        torques = rng.uniform(-1, 1, 2)
+        rates = MODEL.wheel_rates(v, w)
+        q_dot = [v * math.cos(beta), v * math.sin(beta), w, *rates]
+        q_ddot, _ = lagrange_accelerations(MODEL, beta, q_dot, torques)
+        # v' is the acceleration of A along the heading (its normal part is v w)
+        v_dot = q_ddot[0] * math.cos(beta) + q_ddot[1] * math.sin(beta)
+        normal = -q_ddot[0] * math.sin(beta) + q_ddot[1] * math.cos(beta)
+        assert (v_dot, q_ddot[2]) == pytest.approx(appell_gibbs_accelerations(MODEL, v, w, torques), rel=1e-9, abs=1e-9)
+        assert normal == pytest.approx(v * w, abs=1e-9)
+        # and the wheels roll: theta'' follows (v', w')
+        assert q_ddot[3:] == pytest.approx(MODEL.wheel_rates(v_dot, q_ddot[2]), abs=1e-9)
+
+
+def test_constraint_forces_are_the_floors_forces_on_the_wheels():
+    """Straight from rest: each wheel's floor force is (tau - I_w theta'') / r; turning at
+    speed: the axle's lateral force is C's mass times its centripetal acceleration."""
+    q_ddot, forces = lagrange_accelerations(MODEL, 0.0, [0, 0, 0, 0, 0], [0.5, 0.5])
+    assert forces[1] == pytest.approx((0.5 - MODEL.wheel_inertia_kg_m2 * q_ddot[3]) / MODEL.wheel_radius_m)
+    assert forces[0] == pytest.approx(0.0, abs=1e-12)
+    v, w = 0.2, 1.0
+    q_ddot, forces = lagrange_accelerations(MODEL, 0.0, [v, 0, w, *MODEL.wheel_rates(v, w)], [0.0, 0.0])
+    assert forces[0] == pytest.approx(MODEL.mass_kg * (v * w + MODEL.mass_ahead_m * q_ddot[2]))
+
+
+def test_paths_of_fig_7_and_10_are_smooth_and_the_motion_stops_at_their_ends():
+    for test_path in (False, True):
+        spec = CASE.test_path if test_path else CASE.path
+        s = np.linspace(0, path_length(spec), 200001)
+        kappa = curvature(spec, s)
+        assert np.max(np.abs(np.diff(kappa))) < 1e-3  # clothoids: no curvature jump
+        assert np.trapezoid(kappa, s) == pytest.approx(sum(c.turn_rad for c in spec.curves), abs=1e-3)
+        desired = CASE.desired(test_path)
+        assert np.max(np.linalg.norm(desired.velocity_m_s, axis=1)) == pytest.approx(spec.speed_m_s, rel=1e-3)
+        assert np.linalg.norm(desired.velocity_m_s[-1]) == pytest.approx(0.0, abs=1e-9)
+        assert np.linalg.norm(desired.position_m[-1] - desired.path_m[-1]) < 1e-9
+        # the heading H's exact motion asks for settles on the last straight's direction as
+        # exp(-s / d): within 1 mrad after Fig. 7's 1 m, still settling on Fig. 10's 0.3 m (3 d),
+        # the seed's reason to shorten it: "to capture orientation errors after the final curve"
+        settled = abs(desired.heading_rad[-1] - sum(c.turn_rad for c in spec.curves))
+        assert settled < 1e-3 if not test_path else 1e-3 < settled < 0.1
+
+
+def test_eq_19_correcting_velocity_moves_h_towards_its_target():
+    state = PlatformState(0.0, 0.0, 0.3, 0.0, 0.0)
+    target = state.point_h(MODEL.point_h_ahead_m) + np.array([0.01, -0.02])
+    desired = (target, np.zeros(2), 0.0, 0.0, 0.0, np.zeros(2))
+    v, w = commanded_motion(MODEL, state, desired, k=2.0, period_s=0.01)
+    # H's velocity of that (v, w): v e + d w n
+    e, n = np.array([math.cos(0.3), math.sin(0.3)]), np.array([-math.sin(0.3), math.cos(0.3)])
+    h_dot = v * e + MODEL.point_h_ahead_m * w * n
+    assert h_dot == pytest.approx((target - state.point_h(MODEL.point_h_ahead_m)) / (2.0 * 0.01))
+
+
+def test_eq_21_command_lowers_the_index_of_eq_20_over_one_period():
+    """From a wheel-rate error, the command of eq. 21 (about the desired motion's voltage)
+    leaves a smaller kinetic-energy error after one sampling period than no correction."""
+    controller = CASE.energy_controller()
+    state = PlatformState(-MODEL.point_h_ahead_m, 0.0, 0.0, 0.05, 0.2)  # should stand still
+    desired = (np.zeros(2), np.zeros(2), 0.0, 0.0, 0.0, np.zeros(2))
+
+    def index_after(voltages):
+        end = (state.x_m, state.y_m, state.beta_rad, state.v_m_s, state.w_rad_s, 0.0, 0.0)
+        for _ in range(10):
+            end = _rk4_step(MODEL, end, voltages, CASE.period_s / 10)
+        rates = np.array(MODEL.wheel_rates(end[3], end[4]))
+        return 0.5 * rates @ controller.mass @ rates
+
+    u = controller.voltages(0.0, state, desired)
+    assert index_after(u) < 0.9 * index_after(controller.desired_voltage(0.0, 0.0, (0.0, 0.0)))
+
+
+def test_odometry_follows_the_true_pose_to_the_encoders_resolution():
+    desired = CASE.desired()
+    true = simulate_platform(CASE.plant, CASE.pid_controller(), desired, CASE.period_s, with_friction=False)
+    from hex_control.mobile_platform.odometry import EncoderOdometry
+
+    counts = 60000
+    odometry = EncoderOdometry(CASE.plant, counts, CASE.period_s, PlatformState(*true.states[0]))
+    angles = np.cumsum([[0.0, 0.0]] + [CASE.plant.wheel_rates(v, w) for v, w in true.states[:-1, 3:]], axis=0)
+    angles *= CASE.period_s  # rectangle rule: good to the resolution checked below
+    seen = [odometry.measure(a) for a in angles]
+    position_error = max(math.hypot(s.x_m - x, s.y_m - y) for s, (x, y) in zip(seen, true.states[:, :2]))
+    assert position_error < 2e-3
+    speed_quantum = 2 * math.pi / counts * CASE.plant.wheel_radius_m / CASE.period_s
+    assert max(abs(s.v_m_s - v) for s, v in zip(seen[1:], true.states[1:, 3])) < 3 * speed_quantum
+
+
+def test_the_whole_run_is_the_same_on_either_form_of_the_dynamics():
+    desired = CASE.desired()
+    runs = [simulate_platform(CASE.plant, CASE.pid_controller(), desired, CASE.period_s, with_friction=False,
+                              lagrange=lagrange) for lagrange in (False, True)]
+    assert np.max(np.abs(runs[0].states - runs[1].states)) < 1e-9
