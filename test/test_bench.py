@@ -81,3 +81,11 @@ def test_graph_starts_counts_fresh_graphs_ready_and_removes_their_logs(ros_env, 
     assert hung == {} and len(ready_s) == 2 and all(0 < s < 60 for s in ready_s)
     assert seen == [(1, 2, 0), (2, 2, 0)]
     assert list(tmp_path.iterdir()) == []  # the ready starts' logs are removed; a hung one's are kept
+
+
+def test_seed_004_benchmarks_print_their_figures(capsys):
+    assert run_benchmarks(["milling", "mobile_platform"], quick=True) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"0.2 s of cutting .*: [\d.]+ s wall, [\d.]+ simulated s per wall s", out)
+    assert re.search(r"naive baseline \(full FE model.*ratio [\d.]+", out)
+    assert re.search(r"naive baseline \(Lagrange with multipliers.*ratio [\d.]+", out)

@@ -142,9 +142,13 @@ def desired_motion(spec: PathSpec, point_h_ahead_m: float, step_s: float, hold_s
     velocity = np.gradient(position, step_s, axis=0)
     velocity[0] = 0.0
     beta = np.zeros(time.size)
-    for i in range(1, time.size):  # H followed exactly: beta' = (-sin beta x_H' + cos beta y_H') / d
-        vx, vy = 0.5 * (velocity[i] + velocity[i - 1])
-        beta[i] = beta[i - 1] + step_s * (-math.sin(beta[i - 1]) * vx + math.cos(beta[i - 1]) * vy) / point_h_ahead_m
+
+    def turn_rate_of(b, velocity_m_s):  # H followed exactly: beta' = (-sin beta x_H' + cos beta y_H') / d
+        return (-math.sin(b) * velocity_m_s[0] + math.cos(b) * velocity_m_s[1]) / point_h_ahead_m
+
+    for i in range(1, time.size):  # midpoint rule, the velocity linear over the step
+        middle = beta[i - 1] + 0.5 * step_s * turn_rate_of(beta[i - 1], velocity[i - 1])
+        beta[i] = beta[i - 1] + step_s * turn_rate_of(middle, 0.5 * (velocity[i - 1] + velocity[i]))
     speed = np.cos(beta) * velocity[:, 0] + np.sin(beta) * velocity[:, 1]
     turn_rate = (-np.sin(beta) * velocity[:, 0] + np.cos(beta) * velocity[:, 1]) / point_h_ahead_m
     accelerations = np.column_stack([np.gradient(speed, step_s), np.gradient(turn_rate, step_s)])
