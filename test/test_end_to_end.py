@@ -80,6 +80,8 @@ def assert_contact_when_planned(record):
     force = np.asarray(record.force)
     for k, (grind_start_s, times_s, forces_n) in record.trajectories.items():
         planned = grind_start_s + np.asarray(times_s)[np.argmax(np.asarray(forces_n) > 10.0)]
+        lost = [gap for gap in record.telemetry_gaps if gap[1] >= grind_start_s - 1.0 and gap[0] <= planned + 0.5]
+        assert not lost, f"pass {k}: the observer lost the plant's telemetry over {lost} s"
         after = force[force[:, 0] >= grind_start_s - 1.0]
         touched = after[np.argmax(after[:, 1] > 5.0), 0]
         assert abs(touched - planned) < 0.5, f"pass {k}: planned contact at {planned:.2f} s, measured {touched:.2f} s"

@@ -145,6 +145,10 @@ def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_en
         == "transient_local"
     # hexctl play publishes it again, latched as it was offered: a late subscriber gets it
     publishing.destroy_publisher(publisher)
+    # rclpy finalizes a destroyed publisher only once the executor has let go of its event
+    # handlers; until then its latched 42.5 would reach the new subscriber beside the played one
+    wait_until(lambda: publishing.count_publishers("/recorded/latched") == 0, 30.0,
+               what="the original publisher to be gone")
     again = ros.collect(Float64, "/recorded/latched", latched)
     played = subprocess.run([hexctl, "play", str(out), "--wait", "60"], env=ros_env, capture_output=True, text=True,
                             timeout=120)

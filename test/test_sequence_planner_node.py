@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+import rclpy
 from action_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.action import ActionClient
@@ -77,7 +78,11 @@ def planner(spawn, tmp_path):
 
 
 def send(ros, goal, feedback=None):
-    client = ActionClient(ros.node("grind_client"), GrindBead, "/sequence_planner/grind_bead")
+    # the client before the executor sees its node: rclpy's ActionClient joins the node's
+    # waitables before it has its lock, and a spinning executor that counts it then dies
+    node = rclpy.create_node("grind_client", context=ros.context)
+    client = ActionClient(node, GrindBead, "/sequence_planner/grind_bead")
+    ros.add(node)
     probe = ResponseProbe(client)
     try:
         wait_until(probe, 30.0, what="the action server to answer")

@@ -31,6 +31,7 @@ class JobRecord:
     trajectories: dict = field(default_factory=dict)  # pass index -> (grind start s, times s, forces N)
     planned_cut_mm: dict = field(default_factory=dict)  # pass index -> the pass planner's depth (force/stall guard)
     force: list = field(default_factory=list)  # (t s, measured N)
+    telemetry_gaps: list = field(default_factory=list)  # (from s, to s): plant time the observer never saw
     struts: list = field(default_factory=list)  # (t s, lengths m ...)
     strut_names: list = field(default_factory=list)  # the plant's joint names, in the order of ``struts``
     # (stamp s of the pass result it follows, K1 J/mm^3, probability that the disk dulls)

@@ -119,6 +119,9 @@ class JobObserver(Node):
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
         record, n = self.record, len(msg.strut_names)
+        if record.force and len(msg.time_s) >= 2 and msg.time_s[0] - record.force[-1][0] > 1.5 * (
+                msg.time_s[1] - msg.time_s[0]):
+            record.telemetry_gaps.append((record.force[-1][0], msg.time_s[0]))  # batches lost on the way
         record.force.extend(zip(msg.time_s, msg.measured_force_n))
         if not n or len(msg.strut_lengths_m) != n * len(msg.time_s):
             return  # no strut command yet

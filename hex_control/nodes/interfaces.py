@@ -5,7 +5,7 @@ the messages that several nodes read (Contour, ToolPath, the strut JointTrajecto
   command, a force trajectory, the contour): reliable, transient-local, depth 1.
 - ``RESULTS``: pass results, kept by their publisher (depth 10) so that one sent while
   the sequence planner restarts still arrives; receivers ignore results they have seen.
-  ``TELEMETRY`` (the plant's batched state) is kept the same way.
+  ``TELEMETRY`` (the plant's batched state) is kept the same way, 100 deep.
 - Streams (measurements, commands, setpoints) use reliable, volatile, depth 100.
 
 A pass's tool path and strut trajectory are handed over whole, latched (DESIGN.md 4.1), at
@@ -29,7 +29,9 @@ from hex_control_msgs.msg import ToolPath
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-TELEMETRY = RESULTS  # the plant's batched state: a late observer gets the last second and where it holds
+#: the plant's batched state: kept ten sim seconds (100 batches), so that an observer whose
+#: executor is busy for a while (recording, under load) still sees every period
+TELEMETRY = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STREAM = 100
 MAX_PATH_SAMPLES = 200_000
 #: a contour's points and length, at most: planning a pass costs time in proportion to the
