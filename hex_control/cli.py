@@ -36,6 +36,9 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
     demo.add_argument("--no-record", action="store_true", help="do not record the messages (recording/: "
                       "rosbag2's MCAP layout, for Foxglove, PlotJuggler, hexctl play)")
+    demo.add_argument("--resume", metavar="DIR", default=None,
+                      help="take up the unfinished job of a run cut off in DIR (its --output): the planner resumes it "
+                           "from DIR/jobs, the plant the part as last scanned; without it every run starts afresh")
     demo.add_argument("--namespace", default="", help="run the cell under this namespace, e.g. /cell2 (one "
                       "namespace holds one cell; cells side by side in a domain do not meet)")
 
@@ -578,11 +581,11 @@ def main(argv=None) -> int:
         if args.command == "demo":
             from hex_control.nodes.grind_job import run_demo
 
-            return run_demo(args.output, args.deadline, args.seed, args.jobs,
+            return run_demo(args.resume or args.output, args.deadline, args.seed, args.jobs,
                             "realtime" if args.realtime else "lockstep", args.real_time_factor,
                             args.bead_length, args.bead_height, args.dulling,
                             args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine],
-                            args.restart_planner_after, args.namespace, not args.no_record)
+                            args.restart_planner_after, args.namespace, not args.no_record, args.resume is not None)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

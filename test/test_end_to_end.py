@@ -128,16 +128,58 @@ def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
 
 def test_a_plant_restarted_mid_job_does_not_deadlock_the_lockstep_graph(ros_env, tmp_path):
     """The plant is killed while pass 1 is announced and started again: its clock starts from
-    zero (a jump back of the whole graph's time) on a fresh workpiece. The force controller
-    sees the jump once, drops the old timeline's trajectory and follows the new clock; the
-    job goes on to an end the policy chooses (before the fix the lock-step graph deadlocked)."""
+    zero (a jump back of the whole graph's time), on the part as it last scanned it (the part
+    stays on the machine). The force controller sees the jump once, drops the old timeline's
+    trajectory and follows the new clock; the job goes on to an end the policy chooses
+    (before the fix the lock-step graph deadlocked), every pass cutting the part the one
+    before left."""
     with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
         outcome = restart_mid_job(session, 30.0, "plant", lambda: 1 in session.record.trajectories,
                                   "pass 1's force trajectory")
         controller_log = session.graph.log_tail("force_controller", 200)
+        plant_log = session.graph.log_tail("plant", 200)
     assert outcome["reason"] in ("done", "quit"), outcome
     assert controller_log.count("clock jumped") == 1, controller_log
-    assert session.record.results[0]["status"] == "completed"
+    assert "took up the workpiece" in plant_log and session.record.results[0]["status"] == "completed"
+    assert_consistent(session.record, outcome)
+
+
+def test_a_job_cut_off_is_taken_up_by_a_resumed_run_on_the_part_as_it_was(ros_env, tmp_path):
+    """Issue 23 item 4: a run cut off after its first pass (Ctrl-C: every node stopped, the
+    job log unfinished) is taken up by a new graph with ``resume`` (``hexctl demo --resume
+    DIR``): the planner resumes from the log, the plant grinds on the part as last scanned,
+    and the job ends by its policy with every pass once, in order. Without ``resume`` a run
+    in the same folder starts afresh (test_graph.py), and ``resume`` where nothing is
+    unfinished is refused."""
+    from hex_control.grinding.job import read_log, unfinished_logs
+
+    with JobSession(tmp_path, seed=6, plant_overrides=STEADY) as first:
+        first.start_job(22.0, RESET_TIME_S, job_id="cut-off")
+        first.spin_until(lambda: 0 in first.record.results and 1 in first.record.contours, 300.0, "the first pass")
+    [log] = unfinished_logs(tmp_path / "jobs")
+    done = sum(r["type"] == "result" for r in read_log(log))
+    with JobSession(tmp_path, seed=6, plant_overrides=STEADY, resume=True) as resumed:
+        assert resumed.resume_job() == "cut-off"
+        outcome = resumed.wait_for_outcome(400.0)
+    record = resumed.record
+    assert outcome["reason"] in ("done", "quit"), outcome
+    assert record.first_pass == done >= 1 and record.intended
+    assert [i for kind, i in record.events if kind == "result"] == list(range(done, outcome["passes"]))
+    # the resumed plant's first scan is the part the cut-off run's plant last scanned
+    before, after = first.record.contours[done][0], record.contours[done][0]
+    assert np.array_equal(before.x_mm, after.x_mm) and np.array_equal(before.z_mm, after.z_mm)
+    x = first.record.commands[0]["material_mm"] - sum(first.record.results[k]["measured_cut_depth_mm"]
+                                                       for k in range(done))
+    for k in range(done, outcome["passes"]):  # each pass starts where the last one left the part
+        assert record.commands[k]["material_mm"] == pytest.approx(x, abs=1e-9)
+        assert mean_height(record.contours[k][0]) - mean_height(record.contours[k + 1][0]) == pytest.approx(
+            record.results[k]["measured_cut_depth_mm"], abs=1e-9)
+        x -= record.results[k]["measured_cut_depth_mm"]
+    assert outcome["material_remaining_mm"] == pytest.approx(x, abs=1e-9)
+    assert [r["pass_index"] for r in read_log(log) if r["type"] == "result"] == list(range(outcome["passes"]))
+    assert resumed.record.summary()["expected_penalty_at_start"] == first.record.commands[0]["expected_penalty"]
+    with pytest.raises(ValueError, match="no unfinished job"):
+        JobSession(tmp_path, resume=True)
 
 
 def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros_env, tmp_path):

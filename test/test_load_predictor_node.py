@@ -140,10 +140,12 @@ def test_bad_input_field_is_refused_at_start(ros):
 
 
 def test_reset_when_measurement_stamps_go_back(ros):
+    """A stamp before the last resets the predictor; the last stamp again is the same
+    measurement repeated (a restarted plant reports its last pass again): not stepped."""
     node = start_predictor(ros, "/t4", input_type="geometry_msgs/msg/WrenchStamped",
                            input_field="wrench.force.z")
     publisher, predictions, diagnostics = wired_source(ros, "/t4", WrenchStamped)
-    for sec, force in ((100, 1.0), (101, 2.0), (50, 3.0), (51, 4.0)):
+    for sec, force in ((100, 1.0), (101, 2.0), (101, 2.0), (50, 3.0), (51, 4.0)):
         msg = WrenchStamped()
         msg.header.stamp = Time(sec=sec)
         msg.wrench.force.z = force
@@ -155,7 +157,7 @@ def test_reset_when_measurement_stamps_go_back(ros):
     assert predictions[3].prediction == pytest.approx(restarted.step(4.0).prediction, abs=1e-12)
     values = wait_until(lambda: (d := diagnostic_values(diagnostics, node.get_fully_qualified_name()))
                         .get("samples") == "4" and d, 5.0, what="diagnostics")
-    assert values["resets"] == "1"
+    assert values["resets"] == "1" and values["repeated_measurements"] == "1"
 
 
 @pytest.fixture(scope="module")

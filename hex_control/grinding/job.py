@@ -73,7 +73,7 @@ class GrindingJob:
     @classmethod
     def resume(cls, log_path: Path, policy: Policy, charges: Charges) -> GrindingJob:
         """Rebuild a job from its log (a torn last line from a crash is ignored)."""
-        records = _read_log(log_path)
+        records = read_log(log_path)
         job = cls(read_goal(log_path), policy, charges, log_path, replay=True)
         for record in records[1:]:
             job._apply(record)
@@ -168,7 +168,8 @@ class GrindingJob:
                           "passes": self.state.passes})
 
 
-def _read_log(log_path: Path) -> list[dict]:
+def read_log(log_path: Path) -> list[dict]:
+    """A job log's records, in order (goal first)."""
     records = []
     for line in Path(log_path).read_text().splitlines():
         try:
@@ -182,7 +183,7 @@ def _read_log(log_path: Path) -> list[dict]:
 
 def read_model(log_path: Path) -> dict | None:
     """The last process-model update on a job log (see ``GrindingJob.update_model``), if any."""
-    models = [r for r in _read_log(log_path) if r["type"] == "model"]
+    models = [r for r in read_log(log_path) if r["type"] == "model"]
     return models[-1] if models else None
 
 

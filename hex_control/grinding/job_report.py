@@ -38,6 +38,7 @@ class JobRecord:
     k1_predictions: list = field(default_factory=list)
     outcome: dict | None = None
     events: list = field(default_factory=list)  # ("command" | "trajectory" | "result", pass index) as they came
+    first_pass: int = 0  # the first pass observed: that of a resumed job's first result here
 
     def guard_cut_mm(self, index: int) -> float | None:
         """The depth the pass planner planned pass ``index`` with (mm) where its force or
@@ -51,7 +52,10 @@ class JobRecord:
     def intended(self) -> bool:
         """The job ended by the policy's own logic (done or Quit Now), every pass reported."""
         return self.outcome is not None and self.outcome["reason"] in ("done", "quit") \
-            and sorted(self.results) == list(range(len(self.results)))
+            and sorted(self.results) == self._expected_passes(len(self.results))
+
+    def _expected_passes(self, count: int) -> list[int]:
+        return list(range(self.first_pass, self.first_pass + count))
 
     @property
     def part_quality(self) -> dict | None:
@@ -64,7 +68,8 @@ class JobRecord:
         passes = [{"pass": i, **self.commands.get(i, {}), "pass_planner_cut_depth_mm": self.planned_cut_mm.get(i),
                    **{f"measured_{k}" if k in self.commands.get(i, {}) else k: v for k, v in self.results[i].items()}}
                   for i in sorted(self.results)]
-        start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else math.nan
+        start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else \
+            self.goal.get("expected_penalty_at_start", math.nan)  # a resumed job's, from its log
         results_in_order = [i for kind, i in self.events if kind == "result"]
         quality = self.part_quality
         return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
@@ -72,7 +77,7 @@ class JobRecord:
                 "part_within_tolerance": quality is not None and quality["max_deviation_mm"] <= TOLERANCE_MM,
                 "ended_as_intended": self.intended, "passes": passes,
                 # each pass once, in order (a restarted planner must not repeat or skip one)
-                "passes_in_order": results_in_order == list(range(len(results_in_order))),
+                "passes_in_order": results_in_order == self._expected_passes(len(results_in_order)),
                 "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
                 "dulling_detected_after_pass": next((k for k, _, _, drift in specific_energy_by_pass(self)
                                                      if drift > 0.5), None),

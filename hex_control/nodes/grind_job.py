@@ -11,6 +11,7 @@ Exit code 0 only if the job ended as the policy intended (done, or Quit Now).
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from pathlib import Path
@@ -24,7 +25,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from hex_control.config import config_file, node_parameters
-from hex_control.grinding.job import unfinished_logs
+from hex_control.grinding.job import read_goal, read_log, unfinished_logs
 from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
@@ -56,7 +57,7 @@ class JobObserver(Node):
         self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
         self.create_subscription(GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS)
         self.create_subscription(LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM)
-        self.job_id = None
+        self.job_id = None  # the job whose messages are recorded
         self.job_result = None
         self.foreign_messages = 0
 
@@ -92,7 +93,8 @@ class JobObserver(Node):
                 "expected_penalty": msg.expected_penalty, "duration_s": msg.pass_duration_s}
 
     def _on_result(self, msg: PassResult) -> None:
-        if self._mine(msg.job_id):
+        if (self._mine(msg.job_id) and msg.pass_index >= self.record.first_pass
+                and int(msg.pass_index) not in self.record.results):  # a restarted plant reports its last again
             self.record.events.append(("result", int(msg.pass_index)))
             self.record.results[int(msg.pass_index)] = {
                 "status": ("completed", "aborted", "rejected")[msg.status], "reason": msg.reason,
@@ -171,6 +173,18 @@ def fresh_recording_dir(output: Path) -> Path:
     return directory
 
 
+#: in the job directory: the part as the plant last scanned it (:mod:`hex_control.plant.workpiece_store`)
+WORKPIECE_FILE = "workpiece.json"
+
+
+def resumable_job_dir(output: Path) -> Path:
+    """``output/jobs`` of a run that was cut off; ValueError if it holds no unfinished job."""
+    jobs = Path(output) / "jobs"
+    if not (jobs.is_dir() and unfinished_logs(jobs)):
+        raise ValueError(f"{jobs} holds no unfinished job to resume")
+    return jobs
+
+
 def fresh_job_dir(output: Path) -> Path:
     """``output/jobs`` for this run's sequence planner, which resumes any unfinished job it
     finds there: an earlier run's that was cut off is moved aside to ``jobs-<n>`` first (a
@@ -187,14 +201,24 @@ def fresh_job_dir(output: Path) -> Path:
 class JobSession:
     """A fresh graph, an observer in its own rclpy context, and one job on it. Use as a
     context manager; ``start_job`` sends the goal, ``wait_for_outcome`` spins to the end
-    (the fault tests kill and restart nodes in between, through ``graph``)."""
+    (the fault tests kill and restart nodes in between, through ``graph``).
+
+    The plant keeps the part in the job directory (``WORKPIECE_FILE``), so a restarted plant
+    grinds on where it was. With ``resume`` the session takes up the unfinished job that a
+    run cut off left in ``output``: ``resume_job`` instead of ``start_job``."""
 
     def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
                  plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None,
-                 namespace: str = "", record: bool = True):
+                 namespace: str = "", record: bool = True, resume: bool = False):
         self.output = Path(output)
-        self.graph = NodeGraph(graph_nodes(fresh_job_dir(self.output), seed, mode, plant_overrides, machine_file,
-                                           real_time_factor, namespace), self.output / "logs", placement=placement)
+        jobs = resumable_job_dir(self.output) if resume else fresh_job_dir(self.output)
+        self.resumed_log = unfinished_logs(jobs)[-1] if resume else None
+        workpiece = jobs / WORKPIECE_FILE
+        if not resume:
+            workpiece.unlink(missing_ok=True)  # a finished job's part: this run grinds a fresh bead
+        plant_overrides = {**(plant_overrides or {}), "workpiece_file": str(workpiece)}
+        self.graph = NodeGraph(graph_nodes(jobs, seed, mode, plant_overrides, machine_file, real_time_factor,
+                                           namespace), self.output / "logs", placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
@@ -241,7 +265,7 @@ class JobSession:
         matched, the action server answering, the force loop's first state answered.
         TimeoutError naming what it waited for."""
         record, observer = self.record, self.observer
-        self.spin_until(lambda: 0 in record.contours, 60.0, "the plant's first scan")
+        self.spin_until(lambda: record.contours, 60.0, "the plant's first scan")
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
         probe = ResponseProbe(observer.client)
@@ -251,14 +275,17 @@ class JobSession:
             raise TimeoutError(f"{exc}: {probe}") from None
         self.spin_until(lambda: record.force, LOOP_START_S, "the plant's first state to be answered (the force loop)")
 
-    def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
-        record, observer = self.record, self.observer
+    def _ready(self) -> None:
         try:
             self.wait_until_ready()
         except TimeoutError as exc:
             silent = self.graph.dump_tracebacks()  # where each node waits, into logs/<node>.log
             raise TimeoutError(f"the graph did not start ({exc}); its nodes' tracebacks are in {self.graph.log_dir}"
                                f"{' (none from ' + ', '.join(silent) + ')' if silent else ''}") from None
+
+    def start_job(self, deadline_s: float, reset_time_s: float | None = None, job_id: str | None = None) -> str:
+        record, observer = self.record, self.observer
+        self._ready()
         bead, width = record.contours[0]
         goal = GrindBead.Goal(job_id=job_id or f"job-{self.seed}-{int(time.time())}", deadline_s=float(deadline_s),
                               bead_width_mm=float(width))
@@ -267,12 +294,32 @@ class JobSession:
         if reset_time_s is not None:
             goal.process_yaml = yaml.safe_dump({"reset_time_s": float(reset_time_s)})
         observer.job_id = goal.job_id
-        record.goal = {"job_id": goal.job_id, "deadline_s": deadline_s, "bead_width_mm": width, "seed": self.seed,
-                       "reset_time_s": reset_time_s, "mode": self.mode,
+        record.goal = {"job_id": goal.job_id, "deadline_s": deadline_s, "bead_width_mm": width,
+                       "bead_length_mm": bead.length_mm, "seed": self.seed, "reset_time_s": reset_time_s,
+                       "mode": self.mode,
                        "material_mm": float(np.trapezoid(bead.z_mm - bead.parent_mm, bead.x_mm) / bead.length_mm)}
         sent = observer.client.send_goal_async(goal)
         self.spin_until(sent.done, 60.0, "the goal's acceptance")
         self.result_future = sent.result().get_result_async()
+        return goal.job_id
+
+    def resume_job(self) -> str:
+        """Take up the unfinished job (``resume``): the sequence planner resumes it from its
+        log, the plant the part as last scanned; no goal is sent. The record holds the
+        passes from here on."""
+        if self.resumed_log is None:
+            raise ValueError("this session was not opened to resume a job")
+        goal, log = read_goal(self.resumed_log), read_log(self.resumed_log)
+        self.observer.job_id = goal.job_id
+        self.record.first_pass = sum(r["type"] == "result" for r in log)
+        self._ready()
+        first = next((r for r in log if r["type"] == "decision"), None)
+        self.record.goal = {"job_id": goal.job_id, "deadline_s": goal.deadline_s, "bead_width_mm": goal.bead_width_mm,
+                            "bead_length_mm": goal.bead_length_mm, "seed": self.seed,
+                            "reset_time_s": goal.config_overrides.get("process", {}).get("reset_time_s"),
+                            "mode": self.mode, "material_mm": goal.material_mm,
+                            "resumed_at_pass": self.record.first_pass,
+                            "expected_penalty_at_start": first["expected_penalty"] if first else math.nan}
         return goal.job_id
 
     def wait_for_outcome(self, timeout_s: float, on_pass=None) -> dict:
@@ -294,9 +341,9 @@ class JobSession:
                     seen.add(index)
                     if on_pass:
                         on_pass(index, record.commands[index], record.results[index])
-            if self.result_future.done():
+            if self.result_future is not None and self.result_future.done():
                 return self.result_future.result().result
-            return self.observer.job_result
+            return self.observer.job_result  # the planner's latched result: after a restart, or a resumed job's
 
         result = self.spin_until(finished, timeout_s, "the job's result")
         job_result = self.observer.resolve_topic_name("sequence_planner/job_result")
@@ -323,17 +370,23 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
             timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
             machine_file: str | None = None, restart_planner_after: int | None = None,
-            namespace: str = "", record: bool = True) -> JobRecord:
+            namespace: str = "", record: bool = True, resume: bool = False) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
     ``restart_planner_after`` k: kill the sequence planner (SIGKILL) once pass k has ended
-    and start it again -- it resumes from its job log."""
+    and start it again -- it resumes from its job log. ``resume``: take up the unfinished
+    job in ``output`` instead of starting one (``deadline_s`` and ``reset_time_s`` are the
+    job's own then)."""
     with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file,
-                    namespace, record) as session:
-        session.start_job(deadline_s, reset_time_s)
+                    namespace, record, resume) as session:
+        if resume:
+            session.resume_job()
+        else:
+            session.start_job(deadline_s, reset_time_s)
         if not quiet:
-            bead, width = session.record.contours[0]
-            print(f"job {session.record.goal['job_id']}: bead {bead.length_mm:.0f} mm x {width:g} mm, mean height "
-                  f"{session.record.goal['material_mm']:.3f} mm, deadline {deadline_s:g} s")
+            goal = session.record.goal
+            resumed = f", resumed after {session.record.first_pass} passes" if resume else ""
+            print(f"job {goal['job_id']}: bead {goal['bead_length_mm']:.0f} mm x {goal['bead_width_mm']:g} mm, mean "
+                  f"height {goal['material_mm']:.3f} mm, deadline {goal['deadline_s']:g} s{resumed}")
             print(HEADER)
 
         def on_pass(index, command, result):
@@ -369,8 +422,7 @@ def start_policy(record: JobRecord):
     from hex_control.grinding.sdp import solve
 
     process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
-    bead, width = record.contours[0]
-    changes = {"bead_width_mm": width, "bead_length_mm": bead.length_mm}
+    changes = {"bead_width_mm": record.goal["bead_width_mm"], "bead_length_mm": record.goal["bead_length_mm"]}
     if record.goal.get("reset_time_s") is not None:
         changes["reset_time_s"] = record.goal["reset_time_s"]
     process = dataclasses.replace(process, **changes)
@@ -400,6 +452,19 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
             for name, s in (("unshaped", None), ("zvd", shaper))}
 
 
+def _calibrated_reset_time(bead_length_mm: float, deadline_s: float, machine_file: str) -> float:
+    """t_R with the input shaper (s), printed beside the unshaped one."""
+    reset = calibrate_reset_time(bead_length_mm, machine_file=machine_file)
+    for name, r in reset.items():
+        print(f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
+              f"peak deflection {r.peak_deflection_mm:.3f} mm)")
+    shortest = bead_length_mm / 75.0
+    print(f"shaping buys {reset['unshaped'].reset_time_s - reset['zvd'].reset_time_s:.2f} s a pass: "
+          f"{int(deadline_s // (shortest + reset['unshaped'].reset_time_s))} -> "
+          f"{int(deadline_s // (shortest + reset['zvd'].reset_time_s))} fastest passes fit in {deadline_s:g} s")
+    return reset["zvd"].reset_time_s
+
+
 def use_private_domain(environment) -> bool:
     """Set ``ROS_DOMAIN_ID`` in ``environment`` to a domain for this run unless it is set:
     1..101 (the ids whose ports never clash with the ephemeral range), from the process id,
@@ -414,11 +479,13 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
              bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
              machine_host: list[str] | None = None, machine_peers: str = "",
              machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None,
-             namespace: str = "", record: bool = True) -> int:
+             namespace: str = "", record: bool = True, resume: bool = False) -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. 0 only if every job ended as its policy intended, without burn. The
     graph runs in a ROS domain of its own unless ROS_DOMAIN_ID is set, and under
-    ``namespace`` if given; each job's messages are recorded into its ``recording/``."""
+    ``namespace`` if given; each job's messages are recorded into its ``recording/``.
+    ``resume``: take up the unfinished job of an earlier run cut off in ``output`` (its
+    deadline and t_R come from its log) instead."""
     import json
 
     from hex_control.grinding.job_report import job_statistics, write_report
@@ -427,14 +494,11 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
         print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
               "to run it in yours)")
     out = Path(output)
-    reset = calibrate_reset_time(bead_length_mm, machine_file=machine_file)
-    for name, r in reset.items():
-        print(f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
-              f"peak deflection {r.peak_deflection_mm:.3f} mm)")
-    shortest = bead_length_mm / 75.0
-    print(f"shaping buys {reset['unshaped'].reset_time_s - reset['zvd'].reset_time_s:.2f} s a pass: "
-          f"{int(deadline_s // (shortest + reset['unshaped'].reset_time_s))} -> "
-          f"{int(deadline_s // (shortest + reset['zvd'].reset_time_s))} fastest passes fit in {deadline_s:g} s")
+    if resume:
+        jobs, reset_time_s = 1, None
+        print(f"resuming the unfinished job of {resumable_job_dir(out)}")
+    else:
+        reset_time_s = _calibrated_reset_time(bead_length_mm, deadline_s, machine_file)
     overrides = {"bead_length_mm": float(bead_length_mm), "bead_height_mm": float(bead_height_mm),
                  "dulling_per_pass": float(dulling_per_pass)}
     placement = None
@@ -446,10 +510,10 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
     for k in range(jobs):
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
         start = time.monotonic()
-        record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset["zvd"].reset_time_s,
+        record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset_time_s,
                          overrides, quiet=jobs > 1, placement=placement,
                          machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
-                         namespace=namespace, record=record)
+                         namespace=namespace, record=record, resume=resume)
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)

@@ -186,6 +186,9 @@ class LoadPredictorNode(Node):
             return
         if self._has_header:
             stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            if stamp_ns == self._last_stamp_ns:  # the same measurement again (a restarted publisher's repeat)
+                self.diagnostics.count("repeated_measurements")
+                return
             if self._last_stamp_ns is not None and stamp_ns < self._last_stamp_ns:
                 self.reset("measurement stamp went back in time")
             self._last_stamp_ns = stamp_ns

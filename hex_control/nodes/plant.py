@@ -49,7 +49,11 @@ of the struts puts the disk (``machine_file``, bead frame and nominal process fr
 ``friction_cv``, ``dulling_per_pass``, ``wear_mm_per_pass``, seed ``seed``), burn
 (``burn_coefficient`` C_B, 0 = off) and stall detection. Passes are announced by their
 force trajectories; after each (machine settled) the scanner publishes the contour and the
-pass result (:mod:`hex_control.plant.pass_monitor`).
+pass result (:mod:`hex_control.plant.pass_monitor`). With ``workpiece_file`` the part stays
+on the machine across a restart (:mod:`hex_control.plant.workpiece_store`): each scan and its
+result go to the file before they are published, and a plant that starts with the file takes
+the part up as last scanned, scans it as such (job id, passes) and reports that pass's result
+again.
 
 The machine: ``machine_file`` of a Stewart platform drives six generic strut servos
 (:mod:`hex_control.plant.machine`); a 3-PRU file drives the head's rigid-body dynamics
@@ -122,6 +126,7 @@ from hex_control.nodes.interfaces import (
     time_msg,
 )
 from hex_control.nodes.message_info import info_subscription
+from hex_control.nodes.messages import fill_message, to_primitive
 from hex_control.nodes.parameters import ParameterSpec as Spec
 from hex_control.nodes.parameters import declare_parameters
 from hex_control.nodes.runtime import run_node, wall_timer
@@ -136,6 +141,7 @@ from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
 from hex_control.plant.pru3_machine import DRIVES
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
+from hex_control.plant.workpiece_store import StoredWorkpiece, load_workpiece, save_workpiece
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult, PlantTelemetry
 
@@ -208,6 +214,8 @@ PARAMETERS = {
                          "machine YAML (config/machines/); must match the kinematics node's"),
     "pass_planner_config": Spec("pass_planner.yaml", "nominal process, disk and bead frame of the workpiece"),
     "bead_file": Spec("", "bead CSV x_mm,z_mm[,parent_mm]; '' = a generated bead"),
+    "workpiece_file": Spec("", "the part as last scanned (JSON), kept across restarts: taken up at start-up "
+                           "instead of the bead if it exists, replaced after every scan; '' = none"),
     "bead_length_mm": Spec(300.0, "length of a generated bead", 1.0, MAX_CONTOUR_LENGTH_MM),
     "bead_height_mm": Spec(1.0, "height of a generated bead", 0.0, 50.0),
     "bead_end_ramp_mm": Spec(12.0, "length of a generated bead's end ramps", 0.0, 1000.0),
@@ -292,7 +300,7 @@ class PlantNode(Node):
                 ("plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
                  "strut_command_owner", "strut_trajectory")):
             info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, p(owner))
-        # kept (transient-local, the last 10 batches): a late observer still learns where the plant holds
+        # kept (transient-local, the last 100 batches): a late observer still learns where the plant holds
         self.telemetry_publisher = self.create_publisher(PlantTelemetry, "plant/telemetry", TELEMETRY)
         if self.monitor is not None:
             self.contour_publisher = self.create_publisher(ContourMsg, "grinding/contour", LATCHED)
@@ -303,7 +311,10 @@ class PlantNode(Node):
             if p("controller_status_topic"):
                 self.create_subscription(DiagnosticStatus, p("controller_status_topic"), self._on_controller_status,
                                          LATCHED)
-            self.contour_publisher.publish(self._contour_message(cell.contour, "", 0))
+            self.contour_publisher.publish(self._contour_message(cell.contour, self.workpiece.job_id,
+                                                                 self.workpiece.passes))
+            if self.workpiece.last_result is not None:  # the same message again, in case nobody had taken it in
+                self.result_publisher.publish(fill_message(PassResult(), self.workpiece.last_result))
         if self.mode == "realtime":
             self.pacer = RealTimePacer(self.period_s, p("real_time_factor"))
             self.create_timer(self.period_s / p("real_time_factor"), self._realtime_tick)
@@ -315,11 +326,18 @@ class PlantNode(Node):
 
     def _cell(self, machine_geometry, config, contact_mm: float) -> tuple[GrindingCell, ToolLocator]:
         p = lambda name: self.get_parameter(name).value  # noqa: E731
-        if p("bead_file"):
+        self.workpiece = load_workpiece(p("workpiece_file")) if p("workpiece_file") else None
+        if self.workpiece is not None:
+            self.get_logger().info(f"took up the workpiece of {p('workpiece_file')}: {self.workpiece.passes} passes "
+                                   f"of job {self.workpiece.job_id or '(none)'}")
+        elif p("bead_file"):
             bead = Contour.from_csv(p("bead_file"))
         else:
             bead = weld_bead(p("bead_length_mm"), p("bead_height_mm"), p("bead_end_ramp_mm"),
                              ripple_mm=p("bead_ripple_mm"), seed=p("bead_seed"))
+        if self.workpiece is None:
+            self.workpiece = StoredWorkpiece("", 0, bead)
+        bead = self.workpiece.contour
         variation = ProcessVariation(**{n: p(n) for n in VARIATION_PARAMETERS})
         cell = GrindingCell(bead, config.model, variation, p("seed"), contact_mm, config.step_mm,
                             self.period_s, p("burn_coefficient") or None)
@@ -512,6 +530,9 @@ class PlantNode(Node):
                             burn_detected=m.burn_detected, stall_detected=m.stall_detected,
                             part_quality=part_quality_message(part_quality(m.contour_after, end_zone_mm), end_zone_mm))
         result.header.stamp = time_msg(state.time_s)
+        if self.get_parameter("workpiece_file").value:  # on disk before anyone hears of it
+            self.workpiece = StoredWorkpiece(m.job_id, m.pass_index + 1, m.contour_after, to_primitive(result))
+            save_workpiece(self.get_parameter("workpiece_file").value, self.workpiece)
         self.result_publisher.publish(result)
         self.diagnostics.count("passes_aborted" if report.aborted else "passes_completed")
         if m.burn_detected or m.stall_detected:  # until a pass without
