@@ -309,12 +309,11 @@ def _workspace(args) -> int:
     import numpy as np
     from tqdm import tqdm
 
-    from hex_control.config import config_file
+    from hex_control.config import config_path
     from hex_control.kinematics import StewartGeometry, load_machine
     from hex_control.kinematics.report import workspace_report
 
-    path = Path(args.machine)
-    geometry, document = load_machine(path if path.is_file() else config_file(args.machine))
+    geometry, document = load_machine(config_path(args.machine))
     if not isinstance(geometry, StewartGeometry):
         raise ValueError("workspace maps are for Stewart machines (seed 000); this machine is a 3-PRU")
     cube = document.get("workspace", {}).get("search_cube_mm")

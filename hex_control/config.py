@@ -26,6 +26,12 @@ def config_file(name: str) -> Path:
     return source
 
 
+def config_path(source, folder: str = "") -> Path:
+    """``source`` if it is a file, else the shipped ``config/<folder>/<source>``."""
+    path = Path(source)
+    return path if path.is_file() else config_file(f"{folder}/{source}" if folder else str(source))
+
+
 def node_parameters(file_name: str, node: str) -> dict:
     """The ``ros__parameters`` of ``node`` (e.g. ``force_controller``, ``load_predictor/pass``)
     in a shipped parameter file, whose sections are written ``/**/<node>`` so that they

@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from pathlib import Path
 
 import yaml
 
-from hex_control.config import config_file
+from hex_control.config import config_path
 from hex_control.grinding.dynamic import DiskModel
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.pass_plan import CONTROLS, Compliance
@@ -23,15 +22,9 @@ from hex_control.grinding.stochastic import CutDepthModel
 from hex_control.grinding.tool_path import BeadFrame, PathTiming
 
 
-def _path(source) -> Path:
-    """A path, or a file name under config/."""
-    path = Path(source)
-    return path if path.is_file() else config_file(str(source))
-
-
 def load_cell(source="cell.yaml") -> dict:
     """The cell's physical values (``process``, ``disk``) from a path or a name under config/."""
-    path = _path(source)
+    path = config_path(source)
     data = yaml.safe_load(path.read_text()) or {}
     unknown = set(data) - {"process", "disk"}
     if unknown:
@@ -70,7 +63,7 @@ def parse_planner_config(data: dict) -> tuple[GrindingProcess, Charges, PlannerG
 
 def load_planner_config(source) -> tuple[GrindingProcess, Charges, PlannerGrid, CutDepthModel]:
     """From a path, or a file name under config/."""
-    path = _path(source)
+    path = config_path(source)
     return parse_planner_config(yaml.safe_load(path.read_text()) or {})
 
 
@@ -119,7 +112,7 @@ def load_pass_planner_config(source, machine_document: dict | None = None) -> Pa
     """The pass planner's YAML (a path or a name under config/); a machine document (see
     :func:`hex_control.kinematics.load_machine`) with its own ``bead_frame`` places the bead
     for that machine."""
-    path = _path(source)
+    path = config_path(source)
     data = yaml.safe_load(path.read_text()) or {}
     if machine_document and machine_document.get("bead_frame"):
         data = {**data, "bead_frame": machine_document["bead_frame"]}

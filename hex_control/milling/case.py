@@ -4,10 +4,10 @@ spindle programmes, as one object the report, the CLI and the tests share."""
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import yaml
 
+from hex_control.config import config_path
 from hex_control.milling.cutting import Cut
 from hex_control.milling.optimal_speed import OptimalLinearSpeed
 from hex_control.milling.programmes import seed_programmes
@@ -30,11 +30,7 @@ class ChatterCase:
     @classmethod
     def from_yaml(cls, source="chatter.yaml") -> ChatterCase:
         """A path, or a file name under config/milling."""
-        path = Path(source)
-        if not path.is_file():
-            from hex_control.config import config_file
-
-            path = config_file(f"milling/{source}")
+        path = config_path(source, "milling")
         data = yaml.safe_load(path.read_text())
         tool_data = dict(data["tool"])
         modes = int(tool_data.pop("modes"))

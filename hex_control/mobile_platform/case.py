@@ -4,10 +4,10 @@ two controllers, built from one file."""
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import yaml
 
+from hex_control.config import config_path
 from hex_control.mobile_platform.control import EnergyIndexController, TwoPidController
 from hex_control.mobile_platform.model import PlatformParameters
 from hex_control.mobile_platform.path import DesiredMotion, PathSpec, desired_motion
@@ -30,11 +30,7 @@ class PlatformCase:
     @classmethod
     def from_yaml(cls, source="platform.yaml") -> PlatformCase:
         """A path, or a file name under config/mobile_platform."""
-        path = Path(source)
-        if not path.is_file():
-            from hex_control.config import config_file
-
-            path = config_file(f"mobile_platform/{source}")
+        path = config_path(source, "mobile_platform")
         data = yaml.safe_load(path.read_text())
         model = PlatformParameters(**{k: float(v) for k, v in data["model"].items()})
         plant = replace(model, **{k: float(v) for k, v in data["plant"].items()})

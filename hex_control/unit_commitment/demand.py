@@ -8,11 +8,11 @@ Units: MW (an hour's mean demand), MWh.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import yaml
 
+from hex_control.config import config_path
 from hex_control.unit_commitment.fleet import Fleet
 from hex_control.unit_commitment.storage import Storage
 
@@ -25,11 +25,7 @@ class ExampleDay:
 
 def example_day(fleet: Fleet, source="day.yaml") -> ExampleDay:
     """The configured day for ``fleet``: the shape times peak fraction times capacity."""
-    path = Path(source)
-    if not path.is_file():
-        from hex_control.config import config_file
-
-        path = config_file(f"unit_commitment/{source}")
+    path = config_path(source, "unit_commitment")
     data = yaml.safe_load(path.read_text())
     shape = np.asarray(data["shape_percent_of_peak"], float) / 100.0
     if shape.ndim != 1 or shape.size < 2 or not np.all(shape > 0) or shape.max() != 1.0:

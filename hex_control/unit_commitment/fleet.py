@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 import yaml
+
+from hex_control.config import config_path
 
 
 @dataclass(frozen=True)
@@ -73,11 +74,7 @@ class Fleet:
     @classmethod
     def from_yaml(cls, source) -> Fleet:
         """A fleet file (``config/unit_commitment/fleet_*.yaml``): a path or a name there."""
-        path = Path(source)
-        if not path.is_file():
-            from hex_control.config import config_file
-
-            path = config_file(f"unit_commitment/{source}")
+        path = config_path(source, "unit_commitment")
         data = yaml.safe_load(path.read_text())
         units = [Unit(float(u["g_min_mw"]), float(u["g_max_mw"]), float(u["a1"]), float(u["a2"]), float(u["a3"]),
                       tuple(float(c) for c in u["start_cost"])) for u in data["units"]]
