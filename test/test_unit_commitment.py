@@ -337,6 +337,60 @@ def test_the_fluctuations_have_the_stated_statistics_and_the_predictor_is_identi
         LoadFluctuation("brownian")
 
 
+def test_the_reserve_is_the_spread_of_the_summed_forecast_error_eq_6_2():
+    """The on-line reserve: the standard deviation of the demand's forecast error summed over
+    the next hours, by the predictor's model (eq. 6.2-6.3), against a Monte-Carlo of that
+    model; for white noise it grows as the root of the hours, for a persistent load faster."""
+    from hex_control.estimation.gauss_markov import GaussMarkovModel
+    from hex_control.estimation.kalman import OneStepPredictor
+    from hex_control.unit_commitment.online import cumulative_forecast_std_mwh
+
+    load = np.linspace(900.0, 1200.0, 12)
+    white = cumulative_forecast_std_mwh(OneStepPredictor(GaussMarkovModel(0.0, 0.0, 4e-4)), np.full(12, 1000.0))
+    assert white == pytest.approx(20.0 * np.sqrt(np.arange(1, 13)), rel=1e-12)
+    predictor = OneStepPredictor(GaussMarkovModel(0.8, 7e-5, 5e-6))
+    predictor.warm_start(np.zeros(50))
+    p, (a, w, v) = predictor.prediction_variance, (0.8, 7e-5, 5e-6)
+    rng, n = np.random.default_rng(1), 200_000
+    error = rng.normal(0.0, np.sqrt(p), n)  # hour 1's state error, then the model onwards
+    summed = np.empty((12, n))
+    for j in range(12):
+        if j:
+            error = a * error + rng.normal(0.0, np.sqrt(w), n)
+        summed[j] = (summed[j - 1] if j else 0.0) + load[j] * (error + rng.normal(0.0, np.sqrt(v), n))
+    assert cumulative_forecast_std_mwh(predictor, load) == pytest.approx(summed.std(axis=1), rel=0.01)
+    same_spread = 1000.0 * np.sqrt(12 * (w / (1 - a**2) + v))  # white noise of the same variance an hour
+    assert cumulative_forecast_std_mwh(predictor, np.full(12, 1000.0))[-1] > 2 * same_spread  # persistence
+
+
+def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monkeypatch):
+    """Sections 6-7, Fig. 4: each hour the rest of the day is re-planned by DP over the
+    table's candidates at a generation set by the plan's commitments. A commitment at the
+    edge of its capacity there can look infeasible by a few MW, and the DP then starts a
+    unit the incumbent (the last re-plan) had stopped (on 41 machines: 10,000 a start, four
+    Gauss-Markov days in twenty). Both are costed at their own cheapest transfers and the
+    cheaper is taken; on a tie, the re-plan."""
+    import hex_control.unit_commitment.online as online
+    from hex_control.estimation.gauss_markov import GaussMarkovModel
+    from hex_control.estimation.kalman import OneStepPredictor
+    from hex_control.unit_commitment.day import DaySchedule, deterministic_schedule, hours_down
+
+    fleet, day, table = _small_day()
+    plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
+    scheduler = online.OnlineScheduler(fleet, table, plan, day.storage,
+                                       OneStepPredictor(GaussMarkovModel(0.8, 7e-5, 4e-6)))
+    incumbent, t = list(plan.schedule.commitments), 10
+    assert not incumbent[t][0]  # unit 0 is off all day in the plan
+    scheduler.down = hours_down(incumbent[t - 1], len(fleet))  # units 0 and 1 down since the day began
+    needless_start = [(True,) + incumbent[t][1:]] + incumbent[t + 1:]  # on now (464 a start), off again
+    for proposal, kept in ((needless_start, incumbent[t:]), (incumbent[t:], incumbent[t:])):
+        monkeypatch.setattr(online, "search_commitments", lambda *_: DaySchedule(proposal, 0.0, 0.0))
+        ranked, later = scheduler._ranked(t, (day.demand_mw,), incumbent[t - 1], incumbent)
+        assert [ranked[0]] + later == kept
+    assert scheduler._rest_of_day_cost(needless_start, day.demand_mw[t:]) > \
+        scheduler._rest_of_day_cost(incumbent[t:], day.demand_mw[t:]) + fleet.units[0].starting_cost(6)
+
+
 def test_on_line_the_predictable_load_costs_less_than_the_random_one():
     """Section 7: at a fluctuation of 1.42 % std the on-line unit cost rises less over the
     deterministic for Gauss-Markov load than for random (0.031 % vs 0.058 % in the paper).

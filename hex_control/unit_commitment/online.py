@@ -98,6 +98,24 @@ def reserved_store(storage: Storage, demand_mw, fluctuation: LoadFluctuation, si
     return replace(storage, s_min_mwh=low, s_max_mwh=high)
 
 
+def cumulative_forecast_std_mwh(predictor: OneStepPredictor, mean_mw) -> np.ndarray:
+    """Standard deviation (MWh) of the demand's forecast error summed over the next 1, 2 ...
+    n hours of mean demand ``mean_mw``, by the predictor's model (eq. 6.2-6.3): hour j's
+    relative error is a^(j-1) d + sum over i = 2..j of a^(j-i) w(i), d the one-step
+    prediction error (variance P) and w the process noise (W), plus the measurement noise
+    v (V). V counts as demand error too: white-noise demand is identified largely as V (a
+    and W cannot be told apart from V there), and leaving it out would give the random
+    model no reserve at all."""
+    model, load = predictor.model, np.asarray(mean_mw, float)
+    n = load.size
+    powers = model.a ** np.arange(n)
+    variance = predictor.prediction_variance * np.cumsum(load * powers) ** 2
+    for i in range(1, n):  # w(i) enters hour i and decays through the hours after it
+        variance[i:] += model.process_variance * np.cumsum(load[i:] * powers[:n - i]) ** 2
+    variance += model.measurement_variance * np.cumsum(load**2)
+    return np.sqrt(variance)
+
+
 @dataclass(frozen=True)
 class OnlineDay:
     commitments: list[tuple[bool, ...]]
@@ -119,11 +137,18 @@ class OnlineDay:
 
 
 class OnlineScheduler:
-    """Runs days of actual demand against the plan of the mean day (see the module)."""
+    """Runs days of actual demand against the plan of the mean day (see the module).
+    Commitments are chosen to serve the prediction plus ``reserve_sigmas`` standard
+    deviations of its error summed from now to each later hour
+    (:func:`cumulative_forecast_std_mwh`): a unit is stopped only where the rest of the
+    day can go without it if the demand comes in that much above the prediction."""
 
     def __init__(self, fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
-                 predictor: OneStepPredictor):
+                 predictor: OneStepPredictor, reserve_sigmas: float = 2.0):
+        if not reserve_sigmas >= 0:
+            raise ValueError(f"need reserve_sigmas >= 0, got {reserve_sigmas}")
         self.fleet, self.table, self.plan, self.storage, self.predictor = fleet, table, plan, storage, predictor
+        self.reserve_sigmas = reserve_sigmas
         self.down = tuple(0 for _ in fleet.units)  # every unit's hours down
         self.stored_mwh = storage.s_start_mwh
 
@@ -144,34 +169,57 @@ class OnlineScheduler:
         options = candidates_at(self.table, float(np.clip(generation_mw, *levels)))
         return options + [on for on in dict.fromkeys(extra) if on not in options]
 
-    def _ranked(self, t: int, predicted_mw: np.ndarray, previous):
-        """(hour t's candidates, best first; the commitments of the later hours).
+    def _ranked(self, t: int, profiles, previous, incumbent):
+        """(hour t's candidates, best first; the commitments of the later hours), planned
+        for the first of the demand ``profiles`` (the prudent one, then the prediction)
+        that some commitments can serve.
 
-        The rest of the day is re-planned for the prediction: the transfers for the plan's
-        commitments, then the commitments from the table's candidates there (with the
-        plan's, and for this hour the last one's) by dynamic programming from every unit's
-        hours down now. That one's first hour comes first; the other candidates follow by
-        running plus starting cost."""
+        The rest of the day is re-planned for the profile: the transfers for the plan's
+        commitments, then the commitments by dynamic programming from every unit's hours
+        down now. Each hour may take the table's candidates at its generation, the plan's,
+        the incumbent's (the last re-plan's for that hour) or the last hour's. The re-plan
+        and the incumbent are then costed each with its own cheapest transfers, and the
+        cheaper is kept: the DP's generation comes from the plan's commitments, and a
+        commitment at the edge of its capacity there (a unit stopped for the rest of the
+        day) may be infeasible by a few MW that its own transfers would take, which made
+        the re-plan start that unit again an hour later at 10,000 a start. That one's first
+        hour comes first; the other candidates follow by running plus starting cost."""
         planned = self.plan.schedule.commitments
-        try:
-            generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
-        except ValueError:  # the plan cannot meet the prediction: take the store's plan
-            generation = predicted_mw[t:] + self.plan.transfers_mw[t:]
-        options = [self._options(g, planned[t + k], *((previous,) if k == 0 else ()))
-                   for k, g in enumerate(generation)]
-        later = list(planned[t + 1:])
-        ranked = []
-        try:
-            replanned = search_commitments(self.fleet, generation, lambda k: options[k], self.down)
-            ranked, later = [replanned.commitments[0]], replanned.commitments[1:]
-        except ValueError:
-            pass
+        for profile in profiles:
+            try:
+                generation = profile[t:] + self._transfers(planned[t:], profile[t:])
+            except ValueError:  # the plan cannot meet the profile: take the store's plan
+                generation = profile[t:] + self.plan.transfers_mw[t:]
+            options = [self._options(g, planned[t + k], incumbent[t + k], previous) for k, g in enumerate(generation)]
+            paths = [list(incumbent[t:])]
+            try:
+                paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down).commitments)
+            except ValueError:
+                pass
+            costs = [self._rest_of_day_cost(path, profile[t:]) for path in paths]
+            if math.isfinite(min(costs)):
+                break
+        paths = [path for _, path in sorted(zip(costs, paths), key=lambda pair: pair[0])]  # on a tie, the re-plan
+        ranked, later = list(dict.fromkeys(path[0] for path in paths)), paths[0][1:]
 
         def score(on):
             return running_cost(self.fleet, on, generation[0]) + hour_step(self.fleet, self.down, on)[1]
 
         rest = sorted((on for on in options[0] if on not in ranked), key=score)
         return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
+
+    def _rest_of_day_cost(self, path, predicted_mw) -> float:
+        """Running plus starting cost of the commitments ``path`` from now to the day's end
+        at their own cheapest transfers for ``predicted_mw``; inf if they cannot meet it."""
+        try:
+            transfers = self._transfers(path, predicted_mw)
+        except ValueError:
+            return math.inf
+        down, total = self.down, 0.0
+        for on, generation in zip(path, predicted_mw + transfers):
+            down, start = hour_step(self.fleet, down, on)
+            total += running_cost(self.fleet, on, float(generation)) + start
+        return total
 
     def run_day(self, fluctuation, measurement) -> OnlineDay:
         """One day: ``fluctuation`` e(t) and its ``measurement`` y(t), relative, per hour."""
@@ -184,14 +232,18 @@ class OnlineScheduler:
         demand = mean * (1 + fluctuation)
         self.down = tuple(0 for _ in self.fleet.units)  # each day starts as the plan's: every unit on
         commitments, transfers = [], np.zeros(hours)
+        incumbent = list(self.plan.schedule.commitments)  # the commitments in force for the hours to come
         running = starting = 0.0
         unplanned = 0
         for t in range(hours):
             expected = self.predictor.prediction - self.predictor.mean
             predicted = mean[t:] * (1 + self.predictor.mean + expected * a ** np.arange(hours - t))
             predicted = np.concatenate([mean[:t], predicted])
+            prudent = predicted.copy()
+            prudent[t:] += self.reserve_sigmas * np.diff(cumulative_forecast_std_mwh(self.predictor, mean[t:]),
+                                                         prepend=0.0)
             previous = commitments[-1] if commitments else (True,) * len(self.fleet)
-            ranked, later = self._ranked(t, predicted, previous)
+            ranked, later = self._ranked(t, (prudent, predicted), previous, incumbent)
             for rank, on in enumerate(ranked):
                 try:  # the transfer is set for the prediction; the store covers only what the units cannot
                     r = self._transfers([on] + later, predicted[t:])[0]
@@ -208,6 +260,7 @@ class OnlineScheduler:
             self.down, start = hour_step(self.fleet, self.down, on)
             running, starting = running + cost, starting + start
             commitments.append(on)
+            incumbent[t + 1:] = later
             transfers[t] = r
             self.stored_mwh += r
             self.predictor.step(float(measurement[t]))
