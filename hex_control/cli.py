@@ -132,6 +132,8 @@ def _parser() -> argparse.ArgumentParser:
             job.add_argument("--std", type=float, default=0.0142, help="relative std of the fluctuation")
             job.add_argument("--a", type=float, default=0.8, help="Gauss-Markov coefficient per hour")
             job.add_argument("--seed", type=int, default=0)
+            job.add_argument("--unbounded-store", action="store_true",
+                             help="the store's energy unbounded (its rates kept), as in the 7-machine test")
 
     chatter = commands.add_parser("chatter", help="seed 004 section 3: chatter in slender ball-end milling, "
                                   "spindle-speed programmes and stability lobes (PNG, JSON)")
@@ -511,9 +513,9 @@ def _unit_commitment(args) -> int:
         print(f"wrote {args.output}/day_{summary['fleet']}.png")
     else:
         summary = report.run_online(args.fleet, args.output, args.days, args.history_days, args.std, args.a,
-                                    args.seed, args.k, args.step)
-        print(f"{summary['fleet']}: unit cost increase over {args.days} days, fluctuation {100 * args.std:.2f} % std "
-              "(mean ± standard error)")
+                                    args.seed, args.k, args.step, args.unbounded_store)
+        print(f"{summary['fleet']}{' (store unbounded)' if args.unbounded_store else ''}: unit cost increase over "
+              f"{args.days} days, fluctuation {100 * args.std:.2f} % std (mean ± standard error)")
         for kind, result in summary["models"].items():
             hindsight, plan = result["over_hindsight"], result["over_plan"]
             print(f"  {kind:13s} over hindsight {hindsight['mean_percent']:+.4f} ± "

@@ -337,30 +337,24 @@ def test_the_fluctuations_have_the_stated_statistics_and_the_predictor_is_identi
         LoadFluctuation("brownian")
 
 
-def test_the_reserve_is_the_spread_of_the_summed_forecast_error_eq_6_2():
-    """The on-line reserve: the standard deviation of the demand's forecast error summed over
-    the next hours, by the predictor's model (eq. 6.2-6.3), against a Monte-Carlo of that
-    model; for white noise it grows as the root of the hours, for a persistent load faster."""
+def test_demand_scenarios_follow_the_predictors_model_eq_6_2():
+    """The draws a stopping decision is weighed over: from the predictor's estimate the
+    fluctuation decays as a^k towards the mean and spreads by eq. 6.2 (with the measurement
+    noise counted as demand), against the model's own moments."""
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.unit_commitment.online import cumulative_forecast_std_mwh
+    from hex_control.unit_commitment.online import fluctuation_scenarios
 
-    load = np.linspace(900.0, 1200.0, 12)
-    white = cumulative_forecast_std_mwh(OneStepPredictor(GaussMarkovModel(0.0, 0.0, 4e-4)), np.full(12, 1000.0))
-    assert white == pytest.approx(20.0 * np.sqrt(np.arange(1, 13)), rel=1e-12)
-    predictor = OneStepPredictor(GaussMarkovModel(0.8, 7e-5, 5e-6))
-    predictor.warm_start(np.zeros(50))
-    p, (a, w, v) = predictor.prediction_variance, (0.8, 7e-5, 5e-6)
-    rng, n = np.random.default_rng(1), 200_000
-    error = rng.normal(0.0, np.sqrt(p), n)  # hour 1's state error, then the model onwards
-    summed = np.empty((12, n))
-    for j in range(12):
-        if j:
-            error = a * error + rng.normal(0.0, np.sqrt(w), n)
-        summed[j] = (summed[j - 1] if j else 0.0) + load[j] * (error + rng.normal(0.0, np.sqrt(v), n))
-    assert cumulative_forecast_std_mwh(predictor, load) == pytest.approx(summed.std(axis=1), rel=0.01)
-    same_spread = 1000.0 * np.sqrt(12 * (w / (1 - a**2) + v))  # white noise of the same variance an hour
-    assert cumulative_forecast_std_mwh(predictor, np.full(12, 1000.0))[-1] > 2 * same_spread  # persistence
+    a, w, v = 0.8, 7e-5, 5e-6
+    predictor = OneStepPredictor(GaussMarkovModel(a, w, v), mean=0.001)
+    predictor.warm_start(np.full(30, 0.03))  # a persistent +3 %: the estimate is high
+    draws = fluctuation_scenarios(predictor, 8, 100_000, np.random.default_rng(2))
+    estimate, p = predictor.prediction - predictor.mean, predictor.prediction_variance
+    k = np.arange(8)
+    assert draws.mean(axis=0) == pytest.approx(0.001 + estimate * a**k, abs=2e-4)
+    state_variance = p * a ** (2 * k) + w * (1 - a ** (2 * k)) / (1 - a**2)
+    assert draws.var(axis=0) == pytest.approx(state_variance + v, rel=0.02)
+    assert np.corrcoef(draws[:, 3], draws[:, 4])[0, 1] > 0.6  # persistent, unlike white noise
 
 
 def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monkeypatch):
@@ -385,10 +379,63 @@ def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monke
     needless_start = [(True,) + incumbent[t][1:]] + incumbent[t + 1:]  # on now (464 a start), off again
     for proposal, kept in ((needless_start, incumbent[t:]), (incumbent[t:], incumbent[t:])):
         monkeypatch.setattr(online, "search_commitments", lambda *_: DaySchedule(proposal, 0.0, 0.0))
-        ranked, later = scheduler._ranked(t, (day.demand_mw,), incumbent[t - 1], incumbent)
+        ranked, later = scheduler._ranked(t, day.demand_mw, incumbent[t - 1], incumbent)
         assert [ranked[0]] + later == kept
     assert scheduler._rest_of_day_cost(needless_start, day.demand_mw[t:]) > \
         scheduler._rest_of_day_cost(incumbent[t:], day.demand_mw[t:]) + fleet.units[0].starting_cost(6)
+
+
+def test_a_unit_dear_to_start_again_is_stopped_only_where_the_demand_surely_goes_without_it():
+    """Section 6 with the identified predictor: stopping the peaker saves its no-load cost
+    (200 an hour) but starting it again costs 10,000. Where the demand is all but certain
+    to stay within the base unit's 100 MW, stopping pays; where it may well not (10 %
+    spread about 90 MW, persistent), the scheduler keeps the peaker on."""
+    from hex_control.estimation.gauss_markov import GaussMarkovModel
+    from hex_control.estimation.kalman import OneStepPredictor
+    from hex_control.unit_commitment.day import deterministic_schedule
+    from hex_control.unit_commitment.online import OnlineScheduler
+    from hex_control.unit_commitment.storage import Storage
+    from hex_control.unit_commitment.table import scheduling_table
+
+    fleet = Fleet("base_and_peaker", (Unit(0.0, 100.0, 0.0, 10.0, 0.01, (600.0,)),
+                                      Unit(0.0, 50.0, 200.0, 20.0, 0.01, (10_000.0,))))
+    no_store, demand = Storage(0.0, 0.0), np.full(6, 90.0)
+    table = scheduling_table(fleet, k=2, step_mw=10.0)
+    plan = deterministic_schedule(fleet, demand, no_store, table, also=[(True, True)] * 6)
+    both, base = [(True, True)] * 5, [(True, False)] * 5
+    for variance, pays in ((1e-8, True), (1e-2, False)):
+        predictor = OneStepPredictor(GaussMarkovModel(0.9, variance * (1 - 0.81), 1e-8))
+        scheduler = OnlineScheduler(fleet, table, plan, no_store, predictor)
+        assert scheduler._stopping_pays(1, base, both, (True, True)) is pays, variance
+        ranked, later = scheduler._ranked(1, demand, (True, True), [(True, True)] + both)
+        assert ([ranked[0]] + later == base) is pays
+
+
+def test_demand_beyond_the_committed_units_starts_the_cheapest_unit_that_meets_it():
+    """Section 6's recourse in the hour: a demand 15 % above a prediction of the mean, with a
+    store of +-10 MW, is beyond the plan's five units; one unit more is started then, the
+    one whose running and starting cost is least (unit 1: 424 after six hours down), not
+    a table candidate that starts several, and the hour counts as unplanned."""
+    from hex_control.estimation.gauss_markov import GaussMarkovModel
+    from hex_control.estimation.kalman import OneStepPredictor
+    from hex_control.unit_commitment.day import deterministic_schedule
+    from hex_control.unit_commitment.online import OnlineScheduler
+    from hex_control.unit_commitment.storage import Storage
+
+    fleet, day, table = _small_day()
+    store = Storage(-10.0, 10.0)
+    plan = deterministic_schedule(fleet, day.demand_mw, store, table)
+    scheduler = OnlineScheduler(fleet, table, plan, store, OneStepPredictor(GaussMarkovModel(0.0, 1e-6, 1e-6)))
+    surge = np.zeros(24)
+    surge[12] = 0.15
+    result = scheduler.run_day(surge, surge)
+    planned = plan.schedule.commitments[12]
+    assert result.commitments[12] == (False, True) + planned[2:] and not any(planned[:2])
+    assert result.starting_cost == fleet.units[1].starting_cost(6) == 424.0 and result.unplanned == 1
+    assert result.commitments[:12] == plan.schedule.commitments[:12]
+    # whatever the table holds at a level, each single start from the hour before is a candidate
+    ranked, _ = scheduler._ranked(12, day.demand_mw, planned, plan.schedule.commitments)
+    assert {(True,) + planned[1:], (False, True) + planned[2:]} <= set(ranked)
 
 
 def test_on_line_the_predictable_load_costs_less_than_the_random_one():

@@ -98,22 +98,22 @@ def reserved_store(storage: Storage, demand_mw, fluctuation: LoadFluctuation, si
     return replace(storage, s_min_mwh=low, s_max_mwh=high)
 
 
-def cumulative_forecast_std_mwh(predictor: OneStepPredictor, mean_mw) -> np.ndarray:
-    """Standard deviation (MWh) of the demand's forecast error summed over the next 1, 2 ...
-    n hours of mean demand ``mean_mw``, by the predictor's model (eq. 6.2-6.3): hour j's
-    relative error is a^(j-1) d + sum over i = 2..j of a^(j-i) w(i), d the one-step
-    prediction error (variance P) and w the process noise (W), plus the measurement noise
-    v (V). V counts as demand error too: white-noise demand is identified largely as V (a
-    and W cannot be told apart from V there), and leaving it out would give the random
-    model no reserve at all."""
-    model, load = predictor.model, np.asarray(mean_mw, float)
-    n = load.size
-    powers = model.a ** np.arange(n)
-    variance = predictor.prediction_variance * np.cumsum(load * powers) ** 2
-    for i in range(1, n):  # w(i) enters hour i and decays through the hours after it
-        variance[i:] += model.process_variance * np.cumsum(load[i:] * powers[:n - i]) ** 2
-    variance += model.measurement_variance * np.cumsum(load**2)
-    return np.sqrt(variance)
+def fluctuation_scenarios(predictor: OneStepPredictor, hours: int, count: int,
+                          rng: np.random.Generator) -> np.ndarray:
+    """``count`` draws (count x ``hours``) of the relative demand fluctuation over the next
+    hours, by the predictor's model from its present estimate (eq. 6.2-6.3): the first
+    hour's about the prediction with its variance P, each later one a times the last plus
+    the process noise (W), and every hour the measurement noise too (V). V counts as demand:
+    white-noise demand is identified largely as V (a and W cannot be told apart from V
+    there), and leaving it out would take the random load for nearly certain."""
+    model = predictor.model
+    state = rng.normal(predictor.prediction - predictor.mean, math.sqrt(predictor.prediction_variance), count)
+    draws = np.empty((count, hours))
+    for k in range(hours):
+        if k:
+            state = model.a * state + rng.normal(0.0, math.sqrt(model.process_variance), count)
+        draws[:, k] = predictor.mean + state + rng.normal(0.0, math.sqrt(model.measurement_variance), count)
+    return draws
 
 
 @dataclass(frozen=True)
@@ -137,18 +137,16 @@ class OnlineDay:
 
 
 class OnlineScheduler:
-    """Runs days of actual demand against the plan of the mean day (see the module).
-    Commitments are chosen to serve the prediction plus ``reserve_sigmas`` standard
-    deviations of its error summed from now to each later hour
-    (:func:`cumulative_forecast_std_mwh`): a unit is stopped only where the rest of the
-    day can go without it if the demand comes in that much above the prediction."""
+    """Runs days of actual demand against the plan of the mean day (see the module). A
+    decision to stop units is weighed over ``scenarios`` draws of the rest of the day's
+    demand (:func:`fluctuation_scenarios`, seeded by ``seed``)."""
 
     def __init__(self, fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
-                 predictor: OneStepPredictor, reserve_sigmas: float = 2.0):
-        if not reserve_sigmas >= 0:
-            raise ValueError(f"need reserve_sigmas >= 0, got {reserve_sigmas}")
+                 predictor: OneStepPredictor, scenarios: int = 24, seed: int = 0):
+        if scenarios < 1:
+            raise ValueError(f"need at least one scenario, got {scenarios}")
         self.fleet, self.table, self.plan, self.storage, self.predictor = fleet, table, plan, storage, predictor
-        self.reserve_sigmas = reserve_sigmas
+        self.scenarios, self.rng = scenarios, np.random.default_rng(seed)
         self.down = tuple(0 for _ in fleet.units)  # every unit's hours down
         self.stored_mwh = storage.s_start_mwh
 
@@ -169,44 +167,72 @@ class OnlineScheduler:
         options = candidates_at(self.table, float(np.clip(generation_mw, *levels)))
         return options + [on for on in dict.fromkeys(extra) if on not in options]
 
-    def _ranked(self, t: int, profiles, previous, incumbent):
-        """(hour t's candidates, best first; the commitments of the later hours), planned
-        for the first of the demand ``profiles`` (the prudent one, then the prediction)
-        that some commitments can serve.
+    def _ranked(self, t: int, predicted_mw: np.ndarray, previous, incumbent):
+        """(hour t's candidates, best first; the commitments of the later hours).
 
-        The rest of the day is re-planned for the profile: the transfers for the plan's
+        The rest of the day is re-planned for the prediction: the transfers for the plan's
         commitments, then the commitments by dynamic programming from every unit's hours
         down now. Each hour may take the table's candidates at its generation, the plan's,
-        the incumbent's (the last re-plan's for that hour) or the last hour's. The re-plan
-        and the incumbent are then costed each with its own cheapest transfers, and the
-        cheaper is kept: the DP's generation comes from the plan's commitments, and a
-        commitment at the edge of its capacity there (a unit stopped for the rest of the
-        day) may be infeasible by a few MW that its own transfers would take, which made
-        the re-plan start that unit again an hour later at 10,000 a start. That one's first
-        hour comes first; the other candidates follow by running plus starting cost."""
+        the incumbent's (the last re-plan's for that hour) or the last hour's. Three paths
+        are then costed, each at its own cheapest transfers: the re-plan, the incumbent, and
+        holding this hour's commitment before the incumbent's. The DP's generation comes
+        from the plan's commitments, and a commitment at the edge of its capacity there may
+        be infeasible by a few MW that its own transfers would take (the re-plan then
+        started a unit it had stopped an hour before, at 10,000 a start).
+
+        Stopping a unit that runs now is a bet that the day can go without it, and a unit
+        started again costs up to 10,000: the cheapest path is taken if it stops one only
+        where that pays on average over draws of the rest of the day's demand
+        (:meth:`_stopping_pays`), else the cheapest that stops none. Starting needs no such
+        care: a unit started when the demand comes costs what it would have cost started
+        in advance. That one's first hour
+        comes first; the other candidates (the table's, and the last hour's with one unit
+        more: the cheapest recourse when the demand outruns the first) follow by running
+        plus starting cost."""
         planned = self.plan.schedule.commitments
-        for profile in profiles:
-            try:
-                generation = profile[t:] + self._transfers(planned[t:], profile[t:])
-            except ValueError:  # the plan cannot meet the profile: take the store's plan
-                generation = profile[t:] + self.plan.transfers_mw[t:]
-            options = [self._options(g, planned[t + k], incumbent[t + k], previous) for k, g in enumerate(generation)]
-            paths = [list(incumbent[t:])]
-            try:
-                paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down).commitments)
-            except ValueError:
-                pass
-            costs = [self._rest_of_day_cost(path, profile[t:]) for path in paths]
-            if math.isfinite(min(costs)):
-                break
-        paths = [path for _, path in sorted(zip(costs, paths), key=lambda pair: pair[0])]  # on a tie, the re-plan
+        try:
+            generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
+        except ValueError:  # the plan cannot meet the prediction: take the store's plan
+            generation = predicted_mw[t:] + self.plan.transfers_mw[t:]
+        options = [self._options(g, planned[t + k], incumbent[t + k], previous) for k, g in enumerate(generation)]
+        paths = [list(incumbent[t:]), [previous] + list(incumbent[t + 1:])]
+        try:
+            paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down).commitments)
+        except ValueError:
+            pass
+
+        paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: the re-plan on a tie
+        if _stopped(previous, paths[0][0]):
+            keep = next(path for path in paths if not _stopped(previous, path[0]))  # holding stops nothing
+            if not self._stopping_pays(t, paths[0], keep, previous):
+                paths.remove(keep)
+                paths.insert(0, keep)
         ranked, later = list(dict.fromkeys(path[0] for path in paths)), paths[0][1:]
 
         def score(on):
             return running_cost(self.fleet, on, generation[0]) + hour_step(self.fleet, self.down, on)[1]
 
-        rest = sorted((on for on in options[0] if on not in ranked), key=score)
+        # should the demand outrun them: the table's others, or one more unit started now
+        one_more = [tuple(state or k == i for k, state in enumerate(previous)) for i in range(len(previous))]
+        rest = sorted((on for on in dict.fromkeys(options[0] + one_more) if on not in ranked), key=score)
         return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
+
+    def _stopping_pays(self, t: int, stopping, keeping, previous) -> bool:
+        """Whether the path ``stopping`` (which stops units running in ``previous``) costs
+        less than ``keeping`` on average over draws of the demand from hour t on. In a draw
+        the stopping path cannot meet, the units are started again: it costs their most
+        expensive start more than the keeping path."""
+        mean = self.plan.demand_mw[t:]
+        restart = sum(max(unit.start_cost) for unit, now, then in zip(self.fleet.units, previous, stopping[0])
+                      if now and not then)
+        differences = []
+        for fluctuation in fluctuation_scenarios(self.predictor, mean.size, self.scenarios, self.rng):
+            demand = mean * (1 + fluctuation)
+            stop, keep = self._rest_of_day_cost(stopping, demand), self._rest_of_day_cost(keeping, demand)
+            if math.isfinite(keep):
+                differences.append(stop - keep if math.isfinite(stop) else restart)
+            # else neither path holds this draw: both must start something, alike
+        return not differences or float(np.mean(differences)) < 0.0
 
     def _rest_of_day_cost(self, path, predicted_mw) -> float:
         """Running plus starting cost of the commitments ``path`` from now to the day's end
@@ -220,6 +246,20 @@ class OnlineScheduler:
             down, start = hour_step(self.fleet, down, on)
             total += running_cost(self.fleet, on, float(generation)) + start
         return total
+
+    def _hour_transfer(self, on, later, predicted_mw, demand_mw: float) -> float | None:
+        """This hour's transfer with commitment ``on``: set for the prediction with ``later``
+        to follow (or, if they cannot meet it, ``on`` held for the rest of the day: the next
+        re-plan mends it), then clipped to what the units cannot take of the actual
+        ``demand_mw``; None if the store cannot make up the difference."""
+        for rest_of_day in ([on] + list(later), [on] * len(predicted_mw)):
+            try:
+                r = self._transfers(rest_of_day, predicted_mw)[0]
+                lower, upper = transfer_bounds(self.fleet, [on], [demand_mw], self._store_now())
+                return float(np.clip(r, lower[0], upper[0]))
+            except ValueError:
+                continue
+        return None
 
     def run_day(self, fluctuation, measurement) -> OnlineDay:
         """One day: ``fluctuation`` e(t) and its ``measurement`` y(t), relative, per hour."""
@@ -239,19 +279,11 @@ class OnlineScheduler:
             expected = self.predictor.prediction - self.predictor.mean
             predicted = mean[t:] * (1 + self.predictor.mean + expected * a ** np.arange(hours - t))
             predicted = np.concatenate([mean[:t], predicted])
-            prudent = predicted.copy()
-            prudent[t:] += self.reserve_sigmas * np.diff(cumulative_forecast_std_mwh(self.predictor, mean[t:]),
-                                                         prepend=0.0)
             previous = commitments[-1] if commitments else (True,) * len(self.fleet)
-            ranked, later = self._ranked(t, (prudent, predicted), previous, incumbent)
+            ranked, later = self._ranked(t, predicted, previous, incumbent)
             for rank, on in enumerate(ranked):
-                try:  # the transfer is set for the prediction; the store covers only what the units cannot
-                    r = self._transfers([on] + later, predicted[t:])[0]
-                    lower, upper = transfer_bounds(self.fleet, [on], demand[t:t + 1], self._store_now())
-                    r = float(np.clip(r, lower[0], upper[0]))
-                except ValueError:
-                    continue
-                cost = running_cost(self.fleet, on, demand[t] + r)
+                r = self._hour_transfer(on, later, predicted[t:], demand[t])
+                cost = math.inf if r is None else running_cost(self.fleet, on, demand[t] + r)
                 if math.isfinite(cost):
                     break
             else:
@@ -269,6 +301,11 @@ class OnlineScheduler:
                        for on, g in zip(commitments, demand + transfers)])
         self.stored_mwh = self.storage.s_start_mwh  # settled
         return OnlineDay(commitments, demand, transfers, running, starting, -left_in_store * lam, int(unplanned))
+
+
+def _stopped(before, after) -> bool:
+    """Whether commitment ``after`` stops a unit that runs in ``before``."""
+    return any(now and not then for now, then in zip(before, after))
 
 
 def identified_predictor(fluctuation: LoadFluctuation, history_hours: int, rng: np.random.Generator):

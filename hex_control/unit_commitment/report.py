@@ -19,6 +19,7 @@ from hex_control.unit_commitment.demand import example_day
 from hex_control.unit_commitment.fleet import Fleet
 from hex_control.unit_commitment.online import LoadFluctuation, compare_online, reserved_store
 from hex_control.unit_commitment.plots import plot_day, plot_online, plot_table
+from hex_control.unit_commitment.storage import Storage
 from hex_control.unit_commitment.table import load_table, save_table, scheduling_table
 
 
@@ -77,19 +78,22 @@ def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, mi
 
 
 def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, relative_std: float = 0.0142,
-               a: float = 0.8, seed: int = 0, k: int = 5, step_mw: float = 100.0) -> dict:
+               a: float = 0.8, seed: int = 0, k: int = 5, step_mw: float = 100.0,
+               unbounded_store: bool = False) -> dict:
+    """Both load models on-line; ``unbounded_store``: the store's energy without bounds (its
+    rates kept)."""
     fleet, output = Fleet.from_yaml(fleet_file), Path(output)
     rows, _ = table_for(fleet, output, k, step_mw)
     day = example_day(fleet)
+    store = Storage(day.storage.r_min_mw, day.storage.r_max_mw) if unbounded_store else day.storage
     comparisons = []
     summary = {"fleet": fleet.name, "days": days, "history_days": history_days, "relative_std": relative_std,
-               "models": {}}
+               "unbounded_store": unbounded_store, "models": {}}
     for kind in ("uniform", "gauss_markov"):
         fluctuation = LoadFluctuation(kind, relative_std, a)
-        plan = deterministic_schedule(fleet, day.demand_mw, reserved_store(day.storage, day.demand_mw, fluctuation),
-                                      rows)
+        plan = deterministic_schedule(fleet, day.demand_mw, reserved_store(store, day.demand_mw, fluctuation), rows)
         with tqdm(total=days, desc=f"on-line {kind}", unit="day") as bar:
-            comparison = compare_online(fleet, rows, plan, day.storage, fluctuation, days, np.random.default_rng(seed),
+            comparison = compare_online(fleet, rows, plan, store, fluctuation, days, np.random.default_rng(seed),
                                         history_days, progress=lambda done, total: bar.update(done - bar.n))
         comparisons.append(comparison)
         summary["models"][kind] = {
