@@ -73,13 +73,15 @@ class _Starts:
         the hours down, as eq. 2.6 is)."""
         if not self.twins:
             return on
-        chosen = list(on)
+        chosen = None
         for members in self.twins:
             wanted = sum(on[i] for i in members)
-            by_down = sorted(members, key=lambda i: (down[i], i))
-            for rank, i in enumerate(by_down):
+            if wanted in (0, len(members)):
+                continue  # all of them off, or all on: nothing to choose
+            chosen = chosen or list(on)
+            for rank, i in enumerate(sorted(members, key=lambda i: (down[i], i))):
                 chosen[i] = rank < wanted
-        return tuple(chosen)
+        return on if chosen is None else tuple(chosen)
 
     def step(self, down: tuple[int, ...], on: tuple[bool, ...]) -> tuple[tuple[int, ...], float]:
         """(the down times after an hour with ``on``, the starting costs paid in it)."""
@@ -183,14 +185,19 @@ class _Committed:
 
     def dispatch(self, generation_mw) -> tuple[np.ndarray, np.ndarray]:
         """(T,) running cost and incremental cost of each hour's economic dispatch of
-        ``generation_mw`` (within the hour's bounds), all hours at once by bisection."""
-        low = np.full(self.low.shape, float(np.min(self.a2)))
-        high = np.full(self.low.shape, float(np.max(self.a2 + 2 * self.a3 * self.g_max)))
-        for _ in range(60):
-            middle = 0.5 * (low + high)
-            short = self.generation_at(middle) < generation_mw
-            low, high = np.where(short, middle, low), np.where(short, high, middle)
-        lam = 0.5 * (low + high)
+        ``generation_mw`` (within the hour's bounds), all hours at once and exactly: each
+        hour's total is piecewise linear in lambda between the units' breakpoints (as in
+        :func:`~hex_control.unit_commitment.dispatch.economic_dispatch`)."""
+        breakpoints = np.unique(np.concatenate([self.a2 + 2 * self.a3 * self.g_min,
+                                                self.a2 + 2 * self.a3 * self.g_max]))
+        totals = self.on @ np.clip((breakpoints[:, None] - self.a2) / (2 * self.a3), self.g_min, self.g_max).T
+        generation = np.clip(np.asarray(generation_mw, float), self.low, self.high)
+        j = np.clip((totals < generation[:, None]).sum(axis=1), 1, breakpoints.size - 1)  # totals rise along a row
+        rows = np.arange(generation.size)
+        below, above = totals[rows, j - 1], totals[rows, j]
+        rising = above > below
+        lam = np.where(rising, breakpoints[j - 1] + (generation - below) * (breakpoints[j] - breakpoints[j - 1])
+                       / np.where(rising, above - below, 1.0), breakpoints[j])
         g = np.clip((lam[:, None] - self.a2) / (2 * self.a3), self.g_min, self.g_max)
         return ((self.a1 + self.a2 * g + self.a3 * g * g) * self.on).sum(axis=1), lam
 
@@ -247,8 +254,15 @@ def _transfers_within_the_store(hours, demand, storage, transfer_total_mwh, lowe
                    {"type": "ineq", "fun": lambda r: storage.s_max_mwh - storage.s_start_mwh - cumulative @ r,
                     "jac": lambda r: -cumulative}]
     scale = float(np.max(hours.a2 + 2 * hours.a3 * hours.g_max)) * max(float(np.max(demand)), 1.0)
-    result = minimize(lambda r: hours.dispatch(demand + r)[0].sum() / scale, start,
-                      jac=lambda r: hours.dispatch(demand + r)[1] / scale, method="SLSQP",
+    last = {}  # SLSQP asks for the cost and its gradient at the same point: one dispatch for both
+
+    def dispatched(r):
+        if last.get("r") is None or not np.array_equal(last["r"], r):
+            last["r"], last["value"] = np.array(r), hours.dispatch(demand + r)
+        return last["value"]
+
+    result = minimize(lambda r: dispatched(r)[0].sum() / scale, start,
+                      jac=lambda r: dispatched(r)[1] / scale, method="SLSQP",
                       bounds=list(zip(lower, upper)), constraints=constraints, options={"ftol": 1e-12, "maxiter": 500})
     if not result.success:
         raise ValueError(f"no transfers within the store's limits: {result.message}")

@@ -12,8 +12,11 @@ measured as y(t) = e(t) + v(t) (6.3). What is known when:
    starting from the plan (r-bar, G-bar) as the paper does: the transfers for the plan's
    commitments with the store as it is now, returning it to where the day began (eq.
    4.3); then, at that generation, the commitments among the table's candidates and the
-   plan's, with the starting costs from every unit's hours down now. Its first hour's
-   commitment is taken.
+   plan's, with the starting costs from every unit's hours down now. That re-plan, the
+   last one and holding on are costed at their own transfers, and the cheapest first
+   hour is taken; a unit is stopped only where that pays over draws of the demand from
+   the identified model (:func:`fluctuation_scenarios`), since starting it again may cost
+   10,000.
 2. The hour's transfer is set then too, from the same re-plan: the store smooths what is
    predicted, not what comes (section 6: the prediction lets the store "smooth out the
    fluctuations between two time intervals"). In hour t the actual demand comes and the
@@ -172,23 +175,21 @@ class OnlineScheduler:
 
         The rest of the day is re-planned for the prediction: the transfers for the plan's
         commitments, then the commitments by dynamic programming from every unit's hours
-        down now. Each hour may take the table's candidates at its generation, the plan's,
-        the incumbent's (the last re-plan's for that hour) or the last hour's. Three paths
-        are then costed, each at its own cheapest transfers: the re-plan, the incumbent, and
-        holding this hour's commitment before the incumbent's. The DP's generation comes
+        down now, each hour among the table's candidates at its generation, the plan's, the
+        incumbent's (the last re-plan's) and the last hour's. The DP's generation comes
         from the plan's commitments, and a commitment at the edge of its capacity there may
         be infeasible by a few MW that its own transfers would take (the re-plan then
-        started a unit it had stopped an hour before, at 10,000 a start).
+        started a unit it had stopped an hour before, at 10,000 a start). So three paths
+        are costed, each at its own cheapest transfers: the re-plan, the incumbent, and
+        holding the last hour's commitment; the cheapest comes first.
 
-        Stopping a unit that runs now is a bet that the day can go without it, and a unit
-        started again costs up to 10,000: the cheapest path is taken if it stops one only
-        where that pays on average over draws of the rest of the day's demand
-        (:meth:`_stopping_pays`), else the cheapest that stops none. Starting needs no such
-        care: a unit started when the demand comes costs what it would have cost started
-        in advance. That one's first hour
-        comes first; the other candidates (the table's, and the last hour's with one unit
-        more: the cheapest recourse when the demand outruns the first) follow by running
-        plus starting cost."""
+        Stopping a running unit is a bet that the day can go without it: the cheapest path
+        stops one only where that pays on average over draws of the demand
+        (:meth:`_stopping_pays`), else the cheapest that stops none comes first. Starting
+        needs no such care: a unit started when the demand comes costs what it would have
+        cost in advance. The other candidates follow by running plus starting cost: the
+        table's, and the last hour's with one unit more (the cheapest recourse when the
+        demand outruns the first)."""
         planned = self.plan.schedule.commitments
         try:
             generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
@@ -200,7 +201,6 @@ class OnlineScheduler:
             paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down).commitments)
         except ValueError:
             pass
-
         paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: the re-plan on a tie
         if _stopped(previous, paths[0][0]):
             keep = next(path for path in paths if not _stopped(previous, path[0]))  # holding stops nothing
