@@ -639,7 +639,7 @@ def main(argv=None) -> int:
             # the SystemExit was raised inside a callback from rclpy's C++ (e.g. building a
             # message), which turns it into another error: still the signal's exit
             return 128 + _terminated_by
-        if isinstance(exc, ValueError):
+        if isinstance(exc, (ValueError, FileNotFoundError)):  # the user's input: one line, no traceback
             print(f"hexctl: {exc}", file=sys.stderr)
             return 2
         raise

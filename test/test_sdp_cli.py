@@ -24,3 +24,9 @@ def test_sdp_cli_refuses_a_bad_config(tmp_path, capsys):
     bad.write_text("process: {bead_width_mm: -3}\n")
     assert main(["sdp", "--config", str(bad), "--output", str(tmp_path)]) == 2
     assert "bead_width_mm" in capsys.readouterr().err
+
+
+def test_a_missing_config_file_is_one_line(tmp_path, capsys):
+    assert main(["sdp", "--config", "no_such.yaml", "--output", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "no_such.yaml" in err and "Traceback" not in err and err.count("\n") == 1
