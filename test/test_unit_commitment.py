@@ -385,6 +385,34 @@ def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monke
         scheduler._rest_of_day_cost(incumbent[t:], day.demand_mw[t:]) + fleet.units[0].starting_cost(6)
 
 
+def test_the_replan_prices_a_commitment_a_few_mw_short_at_what_the_store_makes_up():
+    """Section 6's hourly re-plan: the DP's generation comes from the plan's transfers, and
+    a commitment a few MW short of it there is not infeasible when the store's rate can
+    make up the difference (on 41 machines the DP instead swapped a running unit for one
+    at 9,974 a start, on two Gauss-Markov days in 160). Within ``reach_mw`` it is priced at
+    the total it can generate plus the difference at the day's energy price."""
+    from hex_control.unit_commitment.day import running_cost, search_commitments
+
+    fleet = Fleet("base_and_peaker", (Unit(0.0, 100.0, 0.0, 10.0, 0.01, (600.0,)),
+                                      Unit(0.0, 50.0, 200.0, 20.0, 0.01, (10_000.0,))))
+    generation, base, both = np.array([90.0, 101.0, 90.0]), (True, False), (True, True)
+
+    def options(t):
+        return [base, (False, True), both]
+
+    down = (0, 6)  # the peaker is off
+    plain = search_commitments(fleet, generation, options, down)
+    assert plain.commitments[1] == both and plain.starting_cost == 10_000.0
+    reach = generation - 10.0, generation + 10.0
+    held = search_commitments(fleet, generation, options, down, reach, energy_price=12.0)
+    assert held.commitments == [base] * 3 and held.starting_cost == 0.0
+    expected = sum(running_cost(fleet, base, g) for g in (90.0, 100.0, 90.0)) + 12.0 * 1.0
+    assert held.running_cost == pytest.approx(expected)
+    # beyond the store's reach it is still refused
+    too_little = generation - 0.5, generation + 0.5
+    assert search_commitments(fleet, generation, options, down, too_little, 12.0).commitments[1] == both
+
+
 def test_a_unit_dear_to_start_again_is_stopped_only_where_the_demand_surely_goes_without_it():
     """Section 6 with the identified predictor: stopping the peaker saves its no-load cost
     (200 an hour) but starting it again costs 10,000. Where the demand is all but certain

@@ -111,20 +111,39 @@ def running_cost(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
         return np.inf
 
 
+def _running_cost_near(fleet: Fleet, on: tuple[bool, ...], total_mw: float, lowest_mw: float,
+                       highest_mw: float, energy_price: float) -> float:
+    """:func:`running_cost` at the total nearest ``total_mw`` within [lowest, highest] that
+    ``on``'s units can generate, plus the difference at ``energy_price``; inf if none."""
+    low = max(lowest_mw, sum(u.g_min_mw for u, state in zip(fleet.units, on) if state))
+    high = min(highest_mw, sum(u.g_max_mw for u, state in zip(fleet.units, on) if state))
+    if low > high + 1e-9:
+        return np.inf
+    nearest = min(max(total_mw, low), high)
+    return running_cost(fleet, on, nearest) + energy_price * (total_mw - nearest)
+
+
 def hours_down(initially_on, n_units: int) -> tuple[int, ...]:
     """Every unit's hours down before the day: 0 if on (all by default), else the cap."""
     return tuple(0 if state else CAP_HOURS for state in ((True,) * n_units if initially_on is None else initially_on))
 
 
-def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ...]) -> DaySchedule:
+def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ...], reach_mw=None,
+                       energy_price: float = 0.0) -> DaySchedule:
     """DP over the hours, each hour's commitments from ``options(t)``, from every unit's
-    hours ``down`` (0: on); a state is those down times, with the cheapest day into it."""
+    hours ``down`` (0: on); a state is those down times, with the cheapest day into it.
+    ``reach_mw``: (lowest, highest) total of each hour that the store's rates would allow;
+    a commitment that cannot generate the hour's total is then priced at the nearest total
+    within them that it can instead of refused, plus the difference at ``energy_price``
+    (per MWh): the store makes it up, and other hours' units generate it."""
     starts = _Starts(fleet)
     start = tuple(min(d, cap) for d, cap in zip(down, starts.caps))
     states = {start: (0.0, 0.0, None)}  # down times -> (total, starting, path) of the cheapest day into them
     for t, total in enumerate(generation_mw):
         following = {}
-        costs = [(on, running_cost(fleet, on, float(total))) for on in options(t)]
+        lowest, highest = (total, total) if reach_mw is None else (reach_mw[0][t], reach_mw[1][t])
+        costs = [(on, _running_cost_near(fleet, on, float(total), lowest, highest, energy_price))
+                 for on in options(t)]
         costs = [(on, cost) for on, cost in costs if np.isfinite(cost)]
         for down, (day_cost, starting, path) in states.items():
             for on, cost in costs:
@@ -200,6 +219,12 @@ class _Committed:
                        / np.where(rising, above - below, 1.0), breakpoints[j])
         g = np.clip((lam[:, None] - self.a2) / (2 * self.a3), self.g_min, self.g_max)
         return ((self.a1 + self.a2 * g + self.a3 * g * g) * self.on).sum(axis=1), lam
+
+
+def incremental_costs(fleet: Fleet, commitments, generation_mw) -> np.ndarray:
+    """(T,) each hour's incremental cost (per MWh) at the economic dispatch of its
+    generation, clipped to its committed units' bounds."""
+    return _Committed(fleet, commitments).dispatch(generation_mw)[1]
 
 
 def transfer_bounds(fleet: Fleet, commitments, demand_mw, storage: Storage) -> tuple[np.ndarray, np.ndarray]:

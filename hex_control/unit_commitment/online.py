@@ -50,6 +50,7 @@ from hex_control.unit_commitment.day import (
     DayPlan,
     cheapest_transfers,
     hour_step,
+    incremental_costs,
     running_cost,
     search_commitments,
     transfer_bounds,
@@ -175,11 +176,14 @@ class OnlineScheduler:
 
         The rest of the day is re-planned for the prediction: the transfers for the plan's
         commitments, then the commitments by dynamic programming from every unit's hours
-        down now, each hour among the table's candidates at its generation, the plan's, the
-        incumbent's (the last re-plan's) and the last hour's. The DP's generation comes
-        from the plan's commitments, and a commitment at the edge of its capacity there may
-        be infeasible by a few MW that its own transfers would take (the re-plan then
-        started a unit it had stopped an hour before, at 10,000 a start). So three paths
+        down now, each hour among the table's candidates at its generation, the plan's for
+        it and the hours either side (a unit the plan starts for the peak may be needed an
+        hour sooner), the incumbent's (the last re-plan's) and the last hour's. The DP's
+        generation comes from the plan's commitments, and a commitment at the edge of its
+        capacity there may fall short by a few MW that its own transfers would take. The DP
+        prices it at what it can generate, the store making up the rest at the day's
+        incremental cost, rather than refuse it: refused, the re-plan swapped a running
+        unit for one at 10,000 a start. The DP's path is still approximate, so three paths
         are costed, each at its own cheapest transfers: the re-plan, the incumbent, and
         holding the last hour's commitment; the cheapest comes first.
 
@@ -195,10 +199,14 @@ class OnlineScheduler:
             generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
         except ValueError:  # the plan cannot meet the prediction: take the store's plan
             generation = predicted_mw[t:] + self.plan.transfers_mw[t:]
-        options = [self._options(g, planned[t + k], incumbent[t + k], previous) for k, g in enumerate(generation)]
+        options = [self._options(g, *planned[max(t + k - 1, 0):t + k + 2], incumbent[t + k], previous)
+                   for k, g in enumerate(generation)]
         paths = [list(incumbent[t:]), [previous] + list(incumbent[t + 1:])]
         try:
-            paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down).commitments)
+            reach = predicted_mw[t:] + self.storage.r_min_mw, predicted_mw[t:] + self.storage.r_max_mw
+            price = float(np.mean(incremental_costs(self.fleet, planned[t:], generation)))
+            paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down, reach,
+                                               price).commitments)
         except ValueError:
             pass
         paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: the re-plan on a tie
