@@ -202,19 +202,20 @@ class OnlineScheduler:
         options = [self._options(g, *planned[max(t + k - 1, 0):t + k + 2], incumbent[t + k], previous)
                    for k, g in enumerate(generation)]
         paths = [list(incumbent[t:]), [previous] + list(incumbent[t + 1:])]
-        try:
-            reach = predicted_mw[t:] + self.storage.r_min_mw, predicted_mw[t:] + self.storage.r_max_mw
-            price = float(np.mean(incremental_costs(self.fleet, planned[t:], generation)))
-            paths.insert(0, search_commitments(self.fleet, generation, lambda k: options[k], self.down, reach,
-                                               price).commitments)
-        except ValueError:
-            pass
-        paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: the re-plan on a tie
+        price = float(np.mean(incremental_costs(self.fleet, planned[t:], generation)))
+        for reach in (None, self._reach(predicted_mw[t:], generation)):  # the DP refusing short ones, and not
+            try:
+                replan = search_commitments(self.fleet, generation, lambda k: options[k], self.down, reach, price)
+                paths.insert(0, replan.commitments)
+            except ValueError:
+                pass
+        paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: a re-plan on a tie
         if _stopped(previous, paths[0][0]):
             keep = next(path for path in paths if not _stopped(previous, path[0]))  # holding stops nothing
-            if not self._stopping_pays(t, paths[0], keep, previous):
-                paths.remove(keep)
-                paths.insert(0, keep)
+            stopping = paths[:paths.index(keep)]  # those cheaper than keeping, cheapest first
+            chosen = next((path for path in stopping if self._stopping_pays(t, path, keep, previous)), keep)
+            paths.remove(chosen)
+            paths.insert(0, chosen)
         ranked, later = list(dict.fromkeys(path[0] for path in paths)), paths[0][1:]
 
         def score(on):
@@ -224,6 +225,18 @@ class OnlineScheduler:
         one_more = [tuple(state or k == i for k, state in enumerate(previous)) for i in range(len(previous))]
         rest = sorted((on for on in dict.fromkeys(options[0] + one_more) if on not in ranked), key=score)
         return ranked + rest + [(True,) * len(self.fleet)], later  # all on: the last resort
+
+    def _reach(self, predicted_mw, generation_mw):
+        """(lowest, highest) generation of each hour the store could make up instead: the
+        rates, and the energy the store would have at every later hour along the transfers
+        behind ``generation_mw`` (drawing more in an hour lowers every later level)."""
+        transfers = np.asarray(generation_mw) - predicted_mw
+        levels = self.stored_mwh + np.cumsum(transfers)
+        can_draw = np.minimum.accumulate((levels - self.storage.s_min_mwh)[::-1])[::-1]
+        can_take = np.minimum.accumulate((self.storage.s_max_mwh - levels)[::-1])[::-1]
+        lowest = np.maximum(predicted_mw + self.storage.r_min_mw, generation_mw - np.maximum(can_draw, 0.0))
+        highest = np.minimum(predicted_mw + self.storage.r_max_mw, generation_mw + np.maximum(can_take, 0.0))
+        return np.minimum(lowest, generation_mw), np.maximum(highest, generation_mw)
 
     def _stopping_pays(self, t: int, stopping, keeping, previous) -> bool:
         """Whether the path ``stopping`` (which stops units running in ``previous``) costs
