@@ -132,7 +132,7 @@ def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ..
                        energy_price: float = 0.0) -> DaySchedule:
     """DP over the hours, each hour's commitments from ``options(t)``, from every unit's
     hours ``down`` (0: on); a state is those down times, with the cheapest day into it.
-    ``reach_mw``: (lowest, highest) total of each hour that the store's rates would allow;
+    ``reach_mw``: (lowest, highest) total of each hour that the store could make up;
     a commitment that cannot generate the hour's total is then priced at the nearest total
     within them that it can instead of refused, plus the difference at ``energy_price``
     (per MWh): the store makes it up, and other hours' units generate it."""

@@ -183,13 +183,16 @@ class OnlineScheduler:
         capacity there may fall short by a few MW that its own transfers would take. The DP
         prices it at what it can generate, the store making up the rest at the day's
         incremental cost, rather than refuse it: refused, the re-plan swapped a running
-        unit for one at 10,000 a start. The DP's path is still approximate, so three paths
-        are costed, each at its own cheapest transfers: the re-plan, the incumbent, and
-        holding the last hour's commitment; the cheapest comes first.
+        unit for one at 10,000 a start. Priced so, a path may lean on the store where a
+        draw of the demand cannot, so the DP is also run refusing them. Its paths are
+        approximate, so four are costed, each at its own cheapest transfers: the two
+        re-plans, the incumbent, and holding the last hour's commitment; the cheapest
+        comes first.
 
-        Stopping a running unit is a bet that the day can go without it: the cheapest path
-        stops one only where that pays on average over draws of the demand
-        (:meth:`_stopping_pays`), else the cheapest that stops none comes first. Starting
+        Stopping a running unit is a bet that the day can go without it: a path cheaper
+        than keeping them is taken, cheapest first, only where stopping pays on average
+        over draws of the demand (:meth:`_stopping_pays`), else the cheapest that stops
+        none comes first. Starting
         needs no such care: a unit started when the demand comes costs what it would have
         cost in advance. The other candidates follow by running plus starting cost: the
         table's, and the last hour's with one unit more (the cheapest recourse when the
