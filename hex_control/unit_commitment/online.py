@@ -192,11 +192,10 @@ class OnlineScheduler:
         Stopping a running unit is a bet that the day can go without it: a path cheaper
         than keeping them is taken, cheapest first, only where stopping pays on average
         over draws of the demand (:meth:`_stopping_pays`), else the cheapest that stops
-        none comes first. Starting
-        needs no such care: a unit started when the demand comes costs what it would have
-        cost in advance. The other candidates follow by running plus starting cost: the
-        table's, and the last hour's with one unit more (the cheapest recourse when the
-        demand outruns the first)."""
+        none comes first. Starting needs no such care: a unit started when the demand
+        comes costs what it would have cost in advance. The other candidates follow by
+        running plus starting cost: the table's, and the last hour's with one unit more
+        (the cheapest recourse when the demand outruns the first)."""
         planned = self.plan.schedule.commitments
         try:
             generation = predicted_mw[t:] + self._transfers(planned[t:], predicted_mw[t:])
@@ -212,7 +211,15 @@ class OnlineScheduler:
                 paths.insert(0, replan.commitments)
             except ValueError:
                 pass
-        paths.sort(key=lambda path: self._rest_of_day_cost(path, predicted_mw[t:]))  # stable: a re-plan on a tie
+        costs = {}  # the two re-plans are often the same path: cost it once
+
+        def cost(path):
+            key = tuple(path)
+            if key not in costs:
+                costs[key] = self._rest_of_day_cost(path, predicted_mw[t:])
+            return costs[key]
+
+        paths.sort(key=cost)  # stable: a re-plan on a tie
         if _stopped(previous, paths[0][0]):
             keep = next(path for path in paths if not _stopped(previous, path[0]))  # holding stops nothing
             stopping = paths[:paths.index(keep)]  # those cheaper than keeping, cheapest first
