@@ -2,17 +2,24 @@
 
 - Lost messages: a gap in one publisher's sequence numbers is messages dropped on the way
   (a KEEP_LAST queue overflowed under a flood), counted as ``lost_<name>``.
-- Command ownership (:mod:`hex_control.plant.command_owner`): with an owner given, only
-  one publisher's messages reach the callback; the others are counted as ``foreign_<name>``.
+- Authority by configuration (:mod:`hex_control.safety.command_owner`): with owners given,
+  only their publishers' messages reach the callback; the others are counted as
+  ``foreign_<name>`` and named in a WARN for ``FOREIGN_WARN_S``. A message whose publisher
+  discovery has not named yet waits (wall time) until it is, so a latched command that beat
+  the news of its sender is not lost.
 """
 
 from __future__ import annotations
 
 import inspect
+import time
 
-from hex_control.plant.command_owner import CommandOwner
+from hex_control.nodes.runtime import wall_timer
+from hex_control.safety.command_owner import CommandOwner, OwnedInput, resolve_owner_nodes
 
 _KEPT_PUBLISHERS = 64  # sequence numbers remembered for this many publishers, the latest heard
+FOREIGN_WARN_S = 10.0  # a refused publisher keeps the WARN this long (wall s) after its last message
+_RETRY_S = 0.05  # how often (wall s) messages of a publisher not yet named are offered again
 
 
 class _WithMessageInfo:
@@ -51,10 +58,13 @@ class LostMessages:
 
 
 def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, name: str,
-                      owner_node: str | None = None) -> CommandOwner | None:
-    """Subscribe ``callback(msg)`` to ``topic``, counting lost messages in ``diagnostics``; with
-    ``owner_node`` ('' = the first publisher heard, or a node's fully qualified name) only
-    the owner's messages are delivered. Returns the CommandOwner, or None without one."""
+                      owner_node: str | tuple[str, ...] | None = None) -> CommandOwner | None:
+    """Subscribe ``callback(msg)`` to ``topic``, counting lost messages in ``diagnostics``.
+
+    ``owner_node``: None = every publisher; '' = the first publisher heard (hand use);
+    otherwise the node name(s) whose publishers alone are obeyed, relative names (``plant``)
+    resolved in this node's namespace, several as a tuple or comma-separated. Returns the
+    CommandOwner, or None without one."""
 
     def endpoints():
         return {bytes(info.endpoint_gid): info for info in node.get_publishers_info_by_topic(subscription.topic_name)}
@@ -65,8 +75,20 @@ def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, na
             return None
         return info.node_namespace.rstrip("/") + "/" + info.node_name
 
-    owner = None if owner_node is None else CommandOwner(node_of, lambda gid: gid in endpoints(), owner_node)
+    owners = resolve_owner_nodes(owner_node, node.get_namespace())
+    owner = None if owners is None else CommandOwner(node_of, lambda gid: gid in endpoints(), owners)
+    gate = None if owner is None else OwnedInput(owner)
     gaps = LostMessages()
+
+    def settle(deliver: list, refused: int) -> None:
+        if refused:
+            diagnostics.count(f"foreign_{name}", refused)
+            sender = owner.last_refused or "an unnamed publisher"
+            obeyed = ", ".join(owner.owner_nodes) or owner.owner_node or "the first publisher"
+            diagnostics.fault(f"foreign_{name}", f"{name} from {sender} refused (obeys {obeyed})",
+                              hold_s=FOREIGN_WARN_S)
+        for msg in deliver:
+            callback(msg)
 
     def on_message(msg, info):
         publisher = info.get("publisher_gid")
@@ -77,10 +99,20 @@ def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, na
         lost = gaps.lost(gid, info.get("publication_sequence_number"))
         if lost:
             diagnostics.count(f"lost_{name}", lost)
-        if owner is None or owner.admit(gid):
+        if gate is None:
             callback(msg)
         else:
-            diagnostics.count(f"foreign_{name}")
+            settle(*gate.offer(gid, msg, time.monotonic()))
+            if gate.waiting:
+                retry_timer.reset()
+
+    def retry():
+        settle(*gate.retry(time.monotonic()))
+        if not gate.waiting:
+            retry_timer.cancel()
 
     subscription = node.create_subscription(msg_type, topic, _WithMessageInfo(on_message), qos)
+    if gate is not None:  # runs only while a message waits for its publisher's name
+        retry_timer = wall_timer(node, _RETRY_S, retry)
+        retry_timer.cancel()
     return owner
