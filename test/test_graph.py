@@ -1,8 +1,12 @@
 """The node graph as processes (hex_control.nodes.graph): a graph that does not start says
 where each node waits before it is stopped; a run's job directory is its own."""
 
+from pathlib import Path
+
+import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 
+from hex_control.config import node_parameters
 from hex_control.nodes.graph import NodeGraph, graph_nodes
 from ros_harness import wait_until
 
@@ -55,3 +59,43 @@ def test_a_demo_keeps_to_a_domain_of_its_own_unless_one_is_set():
     assert 1 <= int(environment["ROS_DOMAIN_ID"]) <= 101 and int(environment["ROS_DOMAIN_ID"]) == 1 + os.getpid() % 101
     chosen = {"ROS_DOMAIN_ID": "17"}
     assert not use_private_domain(chosen) and chosen == {"ROS_DOMAIN_ID": "17"}
+
+
+def _remaps(spec, name: str) -> list[str]:
+    arguments = list(spec.arguments)
+    return [arguments[i + 1].split(":=", 1)[1] for i, a in enumerate(arguments[:-1])
+            if a == "-r" and arguments[i + 1].startswith(f"{name}:=")]
+
+
+def test_every_node_of_a_namespaced_graph_lands_in_the_cell():
+    """Issue 37 item 7: the first __ns remapping on a command line wins, so each node has one:
+    the cell's, or <cell>/load_predictor for a predictor (before, a predictor's came after the
+    cell's and lost: /cell3/pass, with none of its parameter file's values); the sim clock is
+    the cell's wherever the node sits."""
+    for namespace in ("/cell3", ""):
+        specs = {spec.name: spec for spec in graph_nodes(Path("/tmp/jobs"), namespace=namespace)}
+        assert "load_predictor_pass" in specs
+        for name, spec in specs.items():
+            expected = f"{namespace}/load_predictor" if name.startswith("load_predictor") else namespace
+            assert _remaps(spec, "__ns") == ([expected] if expected else []), (name, spec.arguments)
+            assert _remaps(spec, "/clock") == [f"{namespace}/clock"], (name, spec.arguments)
+        assert _remaps(specs["load_predictor_pass"], "__node") == ["pass"]
+
+
+def test_every_parameter_file_of_the_graph_applies_in_any_namespace_and_names_topics_relatively():
+    """A section ``/**/<node>`` matches the node under any namespace; a value starting with '/'
+    (an absolute topic such as /grinding/pass_result) would reach outside the cell. The
+    predictors sit under <cell>/load_predictor: their relative inputs resolve in the cell
+    (``input_namespace: parent``), test_load_predictor_node.py runs one so."""
+    files = {spec.arguments[i + 1] for spec in graph_nodes(Path("/tmp/jobs"), namespace="/c")
+             for i, a in enumerate(spec.arguments[:-1]) if a == "--params-file"}
+    assert {Path(f).name for f in files} >= {"plant.yaml", "force_controller.yaml", "load_predictor.yaml"}
+    for file in files:
+        document = yaml.safe_load(Path(file).read_text())
+        for section, body in document.items():
+            assert section.startswith("/**/"), (file, section)
+            absolute = {k: v for k, v in body["ros__parameters"].items() if isinstance(v, str) and v.startswith("/")}
+            assert not absolute, (file, section, absolute)
+    for name in ("pass", "force"):
+        predictor = node_parameters("load_predictor.yaml", f"load_predictor/{name}")
+        assert predictor["input_namespace"] == "parent" and not predictor["input_topic"].startswith(("/", "~"))

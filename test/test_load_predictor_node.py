@@ -11,7 +11,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.parameter import Parameter
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, Header
 
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, expected_skill, skill_score
 from hex_control.estimation.drift import DriftingLoadPredictor
@@ -242,3 +242,47 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
                what="the three published values to reach the predictor")
     bad = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: high}")
     assert bad.returncode == 2 and "needs a number" in bad.stderr
+
+
+def test_a_relative_input_resolves_in_the_node_or_its_parent_namespace():
+    from hex_control.nodes.load_predictor import input_topic_name
+
+    assert input_topic_name("grinding/pass_result", "node", "/cell2/load_predictor") == "grinding/pass_result"
+    assert input_topic_name("grinding/pass_result", "parent", "/cell2/load_predictor") == "/cell2/grinding/pass_result"
+    assert input_topic_name("plant/wrench", "parent", "/load_predictor") == "/plant/wrench"
+    assert input_topic_name("plant/wrench", "parent", "/") == "/plant/wrench"  # the root is its own parent
+    assert input_topic_name("/x/load", "parent", "/cell2/load_predictor") == "/x/load"  # absolute: as given
+    with pytest.raises(ValueError, match="private"):
+        input_topic_name("~/load", "parent", "/cell2/load_predictor")
+
+
+def test_the_graphs_pass_predictor_in_a_cell_hears_the_cells_results_with_its_parameter_file(ros, ros_env, tmp_path):
+    """Issue 37 item 7: the pass-rate predictor as the graph starts it under /cell7 sits at
+    /cell7/load_predictor/pass, takes its section of load_predictor.yaml (the drift IMM from
+    the cell's K1 = 10) and hears /cell7/grinding/pass_result (before: /cell7/pass with the
+    defaults, a = 0.9 from mean 0, on the root's /grinding/pass_result)."""
+    from hex_control.config import node_parameters
+    from hex_control.nodes.graph import graph_nodes
+    from hex_control_msgs.msg import PassResult
+
+    [spec] = [s for s in graph_nodes(tmp_path / "jobs", namespace="/cell7") if s.name == "load_predictor_pass"]
+    process = NodeProcess(spec.command(), ros_env, tmp_path / "pass.log")
+    try:
+        predictions = ros.collect(LoadPrediction, "/cell7/load_predictor/pass/prediction", publishers=1, timeout_s=30.0)
+        source = ros.node("cell7_plant")
+        publisher = source.create_publisher(PassResult, "/cell7/grinding/pass_result", 10)
+        ros.wait_for_match(source, "/cell7/grinding/pass_result", subscribers=1, timeout_s=30.0)
+        assert source.count_subscribers("/cell7/load_predictor/grinding/pass_result") == 0
+        measured = [11.0, 9.5, 12.0]
+        for k, value in enumerate(measured):
+            publisher.publish(PassResult(header=Header(stamp=Time(sec=10 + k)), specific_energy_j_mm3=value))
+        wait_until(lambda: len(predictions) >= len(measured), 10.0, what="predictions")
+    finally:
+        assert process.stop() in (0, -2), process.output()
+    p = node_parameters("load_predictor.yaml", "load_predictor/pass")
+    reference = DriftingLoadPredictor(GaussMarkovModel(p["a"], p["process_variance"], p["measurement_variance"]),
+                                      10.0, p["drift_rate_variance"], p["drift_switch_probability"],
+                                      p["drift_initial_rate_variance"])
+    for msg, value in zip(predictions, measured):
+        assert msg.quantity == "specific_energy_j_mm3" and msg.mean == 10.0
+        assert msg.prediction == pytest.approx(reference.step(value).prediction, abs=1e-12)

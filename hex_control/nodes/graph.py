@@ -72,7 +72,6 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
              "-p", f"real_time_factor:={float(real_time_factor)}", *machine]
     for name, value in (plant_overrides or {}).items():
         plant += ["-p", f"{name}:={value}"]
-    predictors = str(config_file("load_predictor.yaml"))
     controller = config_file("force_controller.yaml")
     nodes = [
         NodeSpec("plant", "plant", tuple(plant)),
@@ -82,17 +81,28 @@ def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_over
                                                            "trigger:=measurement")),
         NodeSpec("pass_planner", "pass_planner", (*SIM_TIME, *machine)),
         NodeSpec("sequence_planner", "sequence_planner", ("-p", f"job_dir:={job_dir}")),
-        NodeSpec("load_predictor_pass", "load_predictor",
-                 ("-r", f"__ns:={namespace}/load_predictor", "-r", "__node:=pass", "--params-file", predictors)),
     ]
+    # the first __ns remapping on a command line wins: the predictors, under the cell's
+    # <namespace>/load_predictor, get theirs alone; the sim clock is the cell's, named
+    # absolutely since the predictors sit a level below it
+    clock = ("-r", f"/clock:={namespace}/clock")
+    cell = clock + (("-r", f"__ns:={namespace}") if namespace else ())
+    nodes = [NodeSpec(n.name, n.module, cell + n.arguments) for n in nodes]
+    nodes.append(NodeSpec("load_predictor_pass", "load_predictor", clock + predictor_arguments("pass", namespace)))
     if node_parameters("force_controller.yaml", "force_controller").get("feed_forward_mm_per_n", 0.0):
         # a control-rate prediction nobody uses costs 200 Hz
         nodes.append(NodeSpec("load_predictor_force", "load_predictor",
-                              ("-r", f"__ns:={namespace}/load_predictor", "-r", "__node:=force", "--params-file",
-                               predictors)))
-    cell = ("-r", "/clock:=clock") + (("-r", f"__ns:={namespace}") if namespace else ())
-    # the predictors' own __ns comes after the cell's and wins
-    return [NodeSpec(n.name, n.module, cell + n.arguments) for n in nodes]
+                              clock + predictor_arguments("force", namespace)))
+    return nodes
+
+
+def predictor_arguments(name: str, namespace: str = "") -> tuple[str, ...]:
+    """A load predictor's arguments: node ``name`` under ``<namespace>/load_predictor`` (its
+    prediction on ``<namespace>/load_predictor/<name>/prediction``), the shipped parameter
+    file's section ``/**/load_predictor/<name>``, which names its input relative to the cell
+    (``input_namespace: parent``)."""
+    return ("-r", f"__ns:={namespace}/load_predictor", "-r", f"__node:={name}", "--params-file",
+            str(config_file("load_predictor.yaml")))
 
 
 def validated_namespace(namespace: str) -> str:
@@ -172,12 +182,12 @@ class NodeGraph:
         most ``timeout_s``. The names of the nodes whose logs did not grow. A node still
         importing, before its handler is installed, dies of the signal: for a graph about to be
         stopped."""
-        sizes = {name: self._log_path(name).stat().st_size for name, process in self.processes.items()
+        sizes = {name: self.log_path(name).stat().st_size for name, process in self.processes.items()
                  if process.poll() is None}
         for name in sizes:
             self.processes[name].send_signal(signal.SIGUSR1)
         end = time.monotonic() + timeout_s
-        while (silent := [name for name, size in sizes.items() if self._log_path(name).stat().st_size == size]) \
+        while (silent := [name for name, size in sizes.items() if self.log_path(name).stat().st_size == size]) \
                 and time.monotonic() < end:
             time.sleep(0.05)
         return silent
@@ -186,11 +196,11 @@ class NodeGraph:
         """Processes that have exited on their own, with their exit codes."""
         return {name: p.returncode for name, p in self.processes.items() if p.poll() is not None}
 
-    def _log_path(self, name: str) -> Path:
+    def log_path(self, name: str) -> Path:
         """The log of the node's latest start."""
         count = self.starts.get(name, 1) - 1
         return self.log_dir / f"{name}{'-' + str(count) if count else ''}.log"
 
     def log_tail(self, name: str, lines: int = 20) -> str:
-        path = self._log_path(name)
+        path = self.log_path(name)
         return "\n".join(path.read_text(errors="replace").splitlines()[-lines:]) if path.exists() else ""

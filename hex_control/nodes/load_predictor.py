@@ -5,7 +5,9 @@ predicts: the input is any numeric field of any message type (e.g. ``wrench.forc
 of a ``geometry_msgs/msg/WrenchStamped``, or ``data`` of a ``std_msgs/msg/Float64``).
 
 Topics:
-    <input_topic> (param, default ``load``)   in   the measured load y(t) + L_bar
+    <input_topic> (param, default ``load``)   in   the measured load y(t) + L_bar; a relative
+                  name resolves in the node's namespace, or with ``input_namespace`` ``parent``
+                  in the one holding it (the cell, for a predictor run under <cell>/load_predictor)
     ~/prediction  hex_control_msgs/LoadPrediction  out  prediction of the next sample
     /diagnostics  diagnostic_msgs/DiagnosticArray  out  counters, model, warnings
 
@@ -49,6 +51,9 @@ _MODEL_PARAMETERS = ("a", "process_variance", "measurement_variance", "initial_v
 # the model's values are set live (or by the online identification); the rest at start-up
 PARAMETERS = {
     "input_topic": Spec("load", "topic of the measured load"),
+    "input_namespace": Spec("node", "where a relative input_topic resolves: node (the node's namespace, as ROS "
+                            "resolves it) or parent (the namespace holding the node's: the cell, for a predictor "
+                            "run under <cell>/load_predictor)", choices=("node", "parent")),
     "input_type": Spec("std_msgs/msg/Float64", "message type of input_topic"),
     "input_field": Spec("data", "dotted path of the numeric load field, e.g. wrench.force.z"),
     "quantity": Spec("load", "name and unit of the predicted quantity, e.g. normal_force_n"),
@@ -75,8 +80,22 @@ PARAMETERS = {
 }
 
 
+def input_topic_name(topic: str, relative_to: str, namespace: str) -> str:
+    """The name to subscribe ``topic`` by: as given (ROS resolves a relative name in the node's
+    ``namespace``), or with ``relative_to`` 'parent' a relative name made absolute in the
+    namespace that holds ``namespace`` (/cell2/load_predictor -> /cell2/<topic>; the root's
+    parent is the root). ValueError for a private (~) name there: it has no parent reading."""
+    if relative_to == "node" or topic.startswith("/"):
+        return topic
+    if relative_to != "parent":
+        raise ValueError(f"input_namespace {relative_to!r} is not 'node' or 'parent'")
+    if topic.startswith("~"):
+        raise ValueError(f"input_topic {topic!r} is private to the node: input_namespace 'parent' cannot place it")
+    return namespace.rstrip("/").rpartition("/")[0] + "/" + topic
+
+
 class LoadPredictorNode(Node):
-    READY_PARAMETERS = ("input_topic", "quantity")  # in its start-up line
+    READY_PARAMETERS = ("input_topic", "input_namespace", "quantity")  # in its start-up line
 
     def __init__(self, **kwargs):
         super().__init__("load_predictor", **kwargs)
@@ -104,7 +123,8 @@ class LoadPredictorNode(Node):
 
         depth = p("qos_depth").value
         self._publisher = self.create_publisher(LoadPrediction, "~/prediction", depth)
-        info_subscription(self, input_class, p("input_topic").value, self._on_measurement, depth, self.diagnostics,
+        self.input_topic = input_topic_name(p("input_topic").value, p("input_namespace").value, self.get_namespace())
+        info_subscription(self, input_class, self.input_topic, self._on_measurement, depth, self.diagnostics,
                           "measurements")
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
