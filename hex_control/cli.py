@@ -494,7 +494,7 @@ def _bag_info(directory: str) -> int:
 
 
 def _unit_commitment(args) -> int:
-    from hex_control.unit_commitment import report
+    from hex_control.seeds.unit_commitment import report
 
     if args.verb == "table":
         summary = report.build_table(args.fleet, args.output, args.k, args.step)
@@ -528,8 +528,8 @@ def _unit_commitment(args) -> int:
 def _chatter(args) -> int:
     from tqdm import tqdm
 
-    from hex_control.milling.case import ChatterCase
-    from hex_control.milling.study import write_study
+    from hex_control.seeds.milling.case import ChatterCase
+    from hex_control.seeds.milling.study import write_study
 
     case = ChatterCase.from_yaml(args.case)
     with tqdm(total=len(case.programmes()) + 1, desc="chatter", unit="run") as bar:
@@ -551,8 +551,8 @@ def _platform(args) -> int:
     import yaml
     from tqdm import tqdm
 
-    from hex_control.mobile_platform import study, tuning
-    from hex_control.mobile_platform.case import PlatformCase
+    from hex_control.seeds.mobile_platform import study, tuning
+    from hex_control.seeds.mobile_platform.case import PlatformCase
 
     case = PlatformCase.from_yaml(args.case)
     if args.verb == "compare":

@@ -7,16 +7,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from hex_control.milling.case import ChatterCase
-from hex_control.milling.cutting import Cut, cutting_force
-from hex_control.milling.lobes import chatter_frequency, depth_limit
-from hex_control.milling.optimal_speed import OptimalLinearSpeed
-from hex_control.milling.programmes import ConstantSpeed, TriangularSpeed
-from hex_control.milling.report import compare_programmes, run_programme
-from hex_control.milling.semi_discretization import critical_depth, spectral_radius
-from hex_control.milling.simulation import MillingSimulator
-from hex_control.milling.study import zero_order_lobes
-from hex_control.milling.tool_beam import BeamTool
+from hex_control.seeds.milling.case import ChatterCase
+from hex_control.seeds.milling.cutting import Cut, cutting_force
+from hex_control.seeds.milling.lobes import chatter_frequency, depth_limit
+from hex_control.seeds.milling.optimal_speed import OptimalLinearSpeed
+from hex_control.seeds.milling.programmes import ConstantSpeed, TriangularSpeed
+from hex_control.seeds.milling.report import compare_programmes, run_programme
+from hex_control.seeds.milling.semi_discretization import critical_depth, spectral_radius
+from hex_control.seeds.milling.simulation import MillingSimulator
+from hex_control.seeds.milling.study import zero_order_lobes
+from hex_control.seeds.milling.tool_beam import BeamTool
 
 SEED_CHATTER_HZ = 808.0  # Fig. 2a: constant 15 000 rev/min
 

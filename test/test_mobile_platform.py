@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.mobile_platform.case import PlatformCase
-from hex_control.mobile_platform.control import PlatformState, commanded_motion
-from hex_control.mobile_platform.model import appell_gibbs_accelerations, lagrange_accelerations
-from hex_control.mobile_platform.path import curvature, path_length
-from hex_control.mobile_platform.simulation import _rk4_step, simulate_platform
+from hex_control.seeds.mobile_platform.case import PlatformCase
+from hex_control.seeds.mobile_platform.control import PlatformState, commanded_motion
+from hex_control.seeds.mobile_platform.model import appell_gibbs_accelerations, lagrange_accelerations
+from hex_control.seeds.mobile_platform.path import curvature, path_length
+from hex_control.seeds.mobile_platform.simulation import _rk4_step, simulate_platform
 
 CASE = PlatformCase.from_yaml()
 MODEL = CASE.model
@@ -95,7 +95,7 @@ def test_eq_21_command_lowers_the_index_of_eq_20_over_one_period():
 def test_odometry_follows_the_true_pose_to_the_encoders_resolution():
     desired = CASE.desired()
     true = simulate_platform(CASE.plant, CASE.pid_controller(), desired, CASE.period_s, with_friction=False)
-    from hex_control.mobile_platform.odometry import EncoderOdometry
+    from hex_control.seeds.mobile_platform.odometry import EncoderOdometry
 
     counts = 60000
     odometry = EncoderOdometry(CASE.plant, counts, CASE.period_s, PlatformState(*true.states[0]))
@@ -117,7 +117,7 @@ def test_the_whole_run_is_the_same_on_either_form_of_the_dynamics():
 
 @pytest.fixture(scope="module")
 def comparison():
-    from hex_control.mobile_platform.study import compare
+    from hex_control.seeds.mobile_platform.study import compare
 
     return {key: figures for key, (_, figures, _) in compare(CASE).items()}
 

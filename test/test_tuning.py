@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
+from hex_control.control.itae import itae
 from hex_control.plant.force_table import ForceTableParameters
-from hex_control.studies.tuning import itae, step_itae, tune_pi_itae
+from hex_control.studies.tuning import step_itae, tune_pi_itae
 
 LINEAR = ForceTableParameters(stiction_n=0.0, contact_mm=-1.0)
 

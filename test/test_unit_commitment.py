@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize
 
-from hex_control.unit_commitment.commitments import cheapest_commitments
-from hex_control.unit_commitment.dispatch import economic_dispatch
-from hex_control.unit_commitment.fleet import Fleet, Unit, exponential_start_cost
+from hex_control.seeds.unit_commitment.commitments import cheapest_commitments
+from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.fleet import Fleet, Unit, exponential_start_cost
 
 
 def test_the_appendix_fleets_load_with_their_corrections():
@@ -97,7 +97,7 @@ def test_dispatch_refuses_what_it_cannot_do():
 def _brute_force(fleet, total_mw, k):
     """The k cheapest costs over all 2^M commitments, those that differ only in which of
     identical units are on counted once."""
-    from hex_control.unit_commitment.table import commitment_class
+    from hex_control.seeds.unit_commitment.table import commitment_class
 
     costs = {}
     for on in itertools.product([False, True], repeat=len(fleet)):
@@ -130,7 +130,7 @@ def test_the_table_spaces_its_levels_by_rule_4_1():
     """Fig. 2 / eq. 4.1: consecutive levels are the nominal step apart, or less where the
     cheapest commitment changes within it -- and then it changes right there (within the
     resolution), not before."""
-    from hex_control.unit_commitment.table import commitment_class, scheduling_table
+    from hex_control.seeds.unit_commitment.table import commitment_class, scheduling_table
 
     fleet = Fleet("table3_first_8", Fleet.from_yaml("fleet_18.yaml").units[:8])
     rows = scheduling_table(fleet, k=3, step_mw=50.0, resolution_mw=0.5)
@@ -154,7 +154,7 @@ def test_storage_makes_the_generation_as_flat_as_its_limits_allow():
     """Section 4 (i)-(iii): sum r = 0 (eq. 4.3), R bounds (2.3), S bounds (2.4); G = L + r
     as flat as possible. Without store bounds the water-filling level is the exact optimum
     (a general solver finds no flatter one); with them every limit holds."""
-    from hex_control.unit_commitment.storage import Storage, flatten, water_filling
+    from hex_control.seeds.unit_commitment.storage import Storage, flatten, water_filling
 
     hours = np.arange(24)
     demand = 7000.0 + 2500.0 * np.sin((hours - 9) * np.pi / 12) ** 2  # a two-humped day (MW)
@@ -186,7 +186,7 @@ def _day(fleet, hours=24):
 def test_the_exact_day_is_the_cheapest_of_all_commitment_sequences():
     """Dynamic programming over commitments and down times against every sequence of
     commitments over 5 hours, with the tables' starting costs (CS by hours down)."""
-    from hex_control.unit_commitment.day import CAP_HOURS, exact_schedule
+    from hex_control.seeds.unit_commitment.day import CAP_HOURS, exact_schedule
 
     fleet = Fleet("two", (Unit(10.0, 60.0, 80.0, 6.0, 0.02, (40.0, 70.0, 90.0)),
                           Unit(5.0, 40.0, 20.0, 7.5, 0.03, (10.0, 15.0, 18.0))))
@@ -214,8 +214,8 @@ def test_the_table_schedule_is_within_half_a_percent_of_exact_dynamic_programmin
     0.02-0.3 %. Here 3 and 5 machines of Table 3 over a day, the table's 3 cheapest
     commitments at the levels about each hour against all commitments with every unit's
     down time."""
-    from hex_control.unit_commitment.day import exact_schedule, schedule_from_table
-    from hex_control.unit_commitment.table import scheduling_table
+    from hex_control.seeds.unit_commitment.day import exact_schedule, schedule_from_table
+    from hex_control.seeds.unit_commitment.table import scheduling_table
 
     fleet = Fleet(f"table3_{len(machines)}", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in machines))
     generation = _day(fleet)
@@ -227,15 +227,15 @@ def test_the_table_schedule_is_within_half_a_percent_of_exact_dynamic_programmin
 
 def _small_day():
     """Seven machines of Table 3 over the example day, with its store (scaled to them)."""
-    from hex_control.unit_commitment.demand import example_day
-    from hex_control.unit_commitment.table import scheduling_table
+    from hex_control.seeds.unit_commitment.demand import example_day
+    from hex_control.seeds.unit_commitment.table import scheduling_table
 
     fleet = Fleet("table3_7", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in (0, 2, 5, 6, 10, 12, 14)))
     return fleet, example_day(fleet), scheduling_table(fleet, k=4, step_mw=50.0)
 
 
 def test_the_example_day_is_the_ieee_rts_shape_scaled_to_the_fleet():
-    from hex_control.unit_commitment.demand import example_day
+    from hex_control.seeds.unit_commitment.demand import example_day
 
     fleet = Fleet.from_yaml("fleet_41.yaml")
     day = example_day(fleet)
@@ -251,8 +251,8 @@ def test_the_cheapest_transfers_run_every_hour_at_one_incremental_cost():
     """Eq. 2.7 across the hours: for fixed commitments the day is cheapest where every hour
     whose transfer is inside its limits has the same lambda; no general solver finds a
     cheaper day; sum r = 0 (4.3) and the R and S bounds (2.3, 2.4) hold."""
-    from hex_control.unit_commitment.day import cheapest_transfers, transfer_bounds
-    from hex_control.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.day import cheapest_transfers, transfer_bounds
+    from hex_control.seeds.unit_commitment.storage import Storage
 
     fleet, day, _ = _small_day()
     commitments = [(True,) * len(fleet)] * 24
@@ -280,8 +280,8 @@ def test_the_deterministic_schedule_keeps_every_limit_and_only_gets_cheaper():
     """Sections 3 and 5: r(t) with sum r = 0 and the R and S bounds, commitments from the
     table meeting G = L + r within their units' bounds; the compensation rounds end no
     dearer than the flat transfers' schedule they start from."""
-    from hex_control.unit_commitment.day import deterministic_schedule, schedule_from_table
-    from hex_control.unit_commitment.storage import flatten
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule, schedule_from_table
+    from hex_control.seeds.unit_commitment.storage import flatten
 
     fleet, day, table = _small_day()
     plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
@@ -302,9 +302,9 @@ def test_the_milp_brackets_the_exact_day_and_the_table_algorithm_is_near_it():
     exactly dispatched an upper one; on three machines of Table 3 with no store the exact
     DP lies between them. On seven machines with the store the table algorithm is within
     0.5 % of the MILP's lower bound."""
-    from hex_control.unit_commitment.day import deterministic_schedule, exact_schedule
-    from hex_control.unit_commitment.milp import milp_schedule
-    from hex_control.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule, exact_schedule
+    from hex_control.seeds.unit_commitment.milp import milp_schedule
+    from hex_control.seeds.unit_commitment.storage import Storage
 
     fleet = Fleet("table3_3", tuple(Fleet.from_yaml("fleet_18.yaml").units[i] for i in (0, 2, 5)))
     generation = _day(fleet)
@@ -321,7 +321,7 @@ def test_the_milp_brackets_the_exact_day_and_the_table_algorithm_is_near_it():
 def test_the_fluctuations_have_the_stated_statistics_and_the_predictor_is_identified():
     """Eq. 6.1 (uniform on +-alpha) and 6.2-6.3 (Gauss-Markov), both at 1.42 % std; section
     6: a, W, V identified from 80 days of measurements find the Gauss-Markov a."""
-    from hex_control.unit_commitment.online import LoadFluctuation, identified_predictor
+    from hex_control.seeds.unit_commitment.online import LoadFluctuation, identified_predictor
 
     rng = np.random.default_rng(3)
     uniform, _ = LoadFluctuation("uniform").draw(200_000, rng)
@@ -343,7 +343,7 @@ def test_demand_scenarios_follow_the_predictors_model_eq_6_2():
     noise counted as demand), against the model's own moments."""
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.unit_commitment.online import fluctuation_scenarios
+    from hex_control.seeds.unit_commitment.online import fluctuation_scenarios
 
     a, w, v = 0.8, 7e-5, 5e-6
     predictor = OneStepPredictor(GaussMarkovModel(a, w, v), mean=0.001)
@@ -364,10 +364,10 @@ def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monke
     unit the incumbent (the last re-plan) had stopped (on 41 machines: 10,000 a start, four
     Gauss-Markov days in twenty). Both are costed at their own cheapest transfers and the
     cheaper is taken; on a tie, the re-plan."""
-    import hex_control.unit_commitment.online as online
+    import hex_control.seeds.unit_commitment.online as online
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.unit_commitment.day import DaySchedule, deterministic_schedule, hours_down
+    from hex_control.seeds.unit_commitment.day import DaySchedule, deterministic_schedule, hours_down
 
     fleet, day, table = _small_day()
     plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
@@ -391,7 +391,7 @@ def test_the_replan_prices_a_commitment_a_few_mw_short_at_what_the_store_makes_u
     make up the difference (on 41 machines the DP instead swapped a running unit for one
     at 9,974 a start, on two Gauss-Markov days in 160). Within ``reach_mw`` it is priced at
     the total it can generate plus the difference at the day's energy price."""
-    from hex_control.unit_commitment.day import running_cost, search_commitments
+    from hex_control.seeds.unit_commitment.day import running_cost, search_commitments
 
     fleet = Fleet("base_and_peaker", (Unit(0.0, 100.0, 0.0, 10.0, 0.01, (600.0,)),
                                       Unit(0.0, 50.0, 200.0, 20.0, 0.01, (10_000.0,))))
@@ -420,10 +420,10 @@ def test_a_unit_dear_to_start_again_is_stopped_only_where_the_demand_surely_goes
     spread about 90 MW, persistent), the scheduler keeps the peaker on."""
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.unit_commitment.day import deterministic_schedule
-    from hex_control.unit_commitment.online import OnlineScheduler
-    from hex_control.unit_commitment.storage import Storage
-    from hex_control.unit_commitment.table import scheduling_table
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.online import OnlineScheduler
+    from hex_control.seeds.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.table import scheduling_table
 
     fleet = Fleet("base_and_peaker", (Unit(0.0, 100.0, 0.0, 10.0, 0.01, (600.0,)),
                                       Unit(0.0, 50.0, 200.0, 20.0, 0.01, (10_000.0,))))
@@ -446,9 +446,9 @@ def test_demand_beyond_the_committed_units_starts_the_cheapest_unit_that_meets_i
     a table candidate that starts several, and the hour counts as unplanned."""
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.unit_commitment.day import deterministic_schedule
-    from hex_control.unit_commitment.online import OnlineScheduler
-    from hex_control.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.online import OnlineScheduler
+    from hex_control.seeds.unit_commitment.storage import Storage
 
     fleet, day, table = _small_day()
     store = Storage(-10.0, 10.0)
@@ -473,9 +473,9 @@ def test_on_line_the_predictable_load_costs_less_than_the_random_one():
     is the price of not knowing the demand (not the demand's own variation); here on seven
     machines over 24 days, the ordering by more than 3 standard errors. Every day is served:
     each hour's generation is its demand plus its transfer."""
-    from hex_control.unit_commitment.day import deterministic_schedule
-    from hex_control.unit_commitment.online import LoadFluctuation, compare_online
-    from hex_control.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.online import LoadFluctuation, compare_online
+    from hex_control.seeds.unit_commitment.storage import Storage
 
     fleet, day, table = _small_day()
     store = Storage(day.storage.r_min_mw, day.storage.r_max_mw)  # its size unbounded: faster, the same ordering
@@ -498,10 +498,10 @@ def test_on_the_appendix_fleets_the_table_algorithm_is_within_half_a_percent_of_
     bound (tangent costs, HiGHS's dual bound at a 0.5 % gap): within 0.5 %. (Measured at a
     0.1 % gap: 0.049 % on 18 machines, 0.038 % on 41; README.) The table holds the levels
     the day's flattened generation can reach."""
-    from hex_control.unit_commitment.day import deterministic_schedule
-    from hex_control.unit_commitment.demand import example_day
-    from hex_control.unit_commitment.milp import milp_schedule
-    from hex_control.unit_commitment.table import scheduling_table
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.demand import example_day
+    from hex_control.seeds.unit_commitment.milp import milp_schedule
+    from hex_control.seeds.unit_commitment.table import scheduling_table
 
     fleet = Fleet.from_yaml(fleet_file)
     day = example_day(fleet)

@@ -12,10 +12,10 @@ import numpy as np
 from scipy.linalg import expm
 
 from hex_control.bench import benchmark
-from hex_control.milling.case import ChatterCase
-from hex_control.milling.cutting import cutting_force
-from hex_control.milling.programmes import ConstantSpeed
-from hex_control.milling.simulation import MillingSimulator
+from hex_control.seeds.milling.case import ChatterCase
+from hex_control.seeds.milling.cutting import cutting_force
+from hex_control.seeds.milling.programmes import ConstantSpeed
+from hex_control.seeds.milling.simulation import MillingSimulator
 
 
 def naive_milling(case: ChatterCase, speed_rpm: float, duration_s: float) -> np.ndarray:

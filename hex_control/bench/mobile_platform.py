@@ -8,8 +8,8 @@ from __future__ import annotations
 import time
 
 from hex_control.bench import benchmark
-from hex_control.mobile_platform.case import PlatformCase
-from hex_control.mobile_platform.simulation import simulate_platform
+from hex_control.seeds.mobile_platform.case import PlatformCase
+from hex_control.seeds.mobile_platform.simulation import simulate_platform
 
 
 @benchmark("mobile_platform")

@@ -10,12 +10,12 @@ import time
 import numpy as np
 
 from hex_control.bench import benchmark
-from hex_control.unit_commitment.day import deterministic_schedule
-from hex_control.unit_commitment.demand import example_day
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.milp import milp_schedule
-from hex_control.unit_commitment.online import LoadFluctuation, OnlineScheduler, identified_predictor
-from hex_control.unit_commitment.table import scheduling_table
+from hex_control.seeds.unit_commitment.day import deterministic_schedule
+from hex_control.seeds.unit_commitment.demand import example_day
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.milp import milp_schedule
+from hex_control.seeds.unit_commitment.online import LoadFluctuation, OnlineScheduler, identified_predictor
+from hex_control.seeds.unit_commitment.table import scheduling_table
 
 PAPER_MIN = {18: (120.0, 1 + 35 / 60), 41: (200.0, 3 + 50 / 60)}  # Table 2: table build, 24-hour schedule
 

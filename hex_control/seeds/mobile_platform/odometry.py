@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import math
 
-from hex_control.mobile_platform.control import PlatformState
-from hex_control.mobile_platform.model import PlatformParameters
+from hex_control.seeds.mobile_platform.control import PlatformState
+from hex_control.seeds.mobile_platform.model import PlatformParameters
 
 
 class EncoderOdometry:

@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hex_control.milling.report import ProgrammeResult, displacement_spectrum
 from hex_control.plotting import plt, save
+from hex_control.seeds.milling.report import ProgrammeResult, displacement_spectrum
 
 
 def plot_spectra(path, results: list[ProgrammeResult], settle_s: float, band_hz) -> None:

@@ -8,9 +8,9 @@ import json
 from dataclasses import asdict
 from pathlib import Path
 
-from hex_control.mobile_platform.case import PlatformCase
-from hex_control.mobile_platform.plots import plot_heading, plot_paths
-from hex_control.mobile_platform.simulation import tracking_figures
+from hex_control.seeds.mobile_platform.case import PlatformCase
+from hex_control.seeds.mobile_platform.plots import plot_heading, plot_paths
+from hex_control.seeds.mobile_platform.simulation import tracking_figures
 
 CONTROLLERS = ("energy index", "two PID")
 PATHS = {"Fig. 7 path": False, "Fig. 10 test path": True}

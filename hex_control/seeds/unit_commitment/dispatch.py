@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.unit_commitment.fleet import Unit
+from hex_control.seeds.unit_commitment.fleet import Unit
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ import numpy as np
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 from hex_control.estimation.identify import identify
 from hex_control.estimation.kalman import OneStepPredictor
-from hex_control.unit_commitment.day import (
+from hex_control.seeds.unit_commitment.day import (
     DayPlan,
     cheapest_transfers,
     hour_step,
@@ -55,10 +55,10 @@ from hex_control.unit_commitment.day import (
     search_commitments,
     transfer_bounds,
 )
-from hex_control.unit_commitment.dispatch import economic_dispatch
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.storage import Storage
-from hex_control.unit_commitment.table import TableRow, candidates_at
+from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.storage import Storage
+from hex_control.seeds.unit_commitment.table import TableRow, candidates_at
 
 
 @dataclass(frozen=True)
@@ -367,7 +367,7 @@ def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: 
                    progress=None) -> OnlineComparison:
     """``days`` consecutive days of demand (one fluctuation process), each scheduled on-line;
     ``progress(day, days)`` after each."""
-    from hex_control.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
 
     predictor, found = identified_predictor(fluctuation, history_days * plan.demand_mw.size, rng)
     scheduler = OnlineScheduler(fleet, table, plan, storage, predictor)

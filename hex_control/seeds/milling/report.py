@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.milling.case import ChatterCase
-from hex_control.milling.simulation import MillingRecord, MillingSimulator
+from hex_control.seeds.milling.case import ChatterCase
+from hex_control.seeds.milling.simulation import MillingRecord, MillingSimulator
 
 
 def displacement_spectrum(record: MillingRecord, settle_s: float, axis: int = 1) -> tuple[np.ndarray, np.ndarray]:

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from hex_control.milling.cutting import Cut, cutting_force
-from hex_control.milling.tool_beam import ToolModes
+from hex_control.seeds.milling.cutting import Cut, cutting_force
+from hex_control.seeds.milling.tool_beam import ToolModes
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import expm
 
-from hex_control.mobile_platform.model import PlatformParameters
+from hex_control.seeds.mobile_platform.model import PlatformParameters
 
 
 @dataclass(frozen=True)

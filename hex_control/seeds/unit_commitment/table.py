@@ -18,8 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hex_control.unit_commitment.commitments import Commitment, cheapest_commitments
-from hex_control.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.commitments import Commitment, cheapest_commitments
+from hex_control.seeds.unit_commitment.fleet import Fleet
 
 
 @dataclass(frozen=True)

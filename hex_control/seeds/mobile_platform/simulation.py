@@ -9,15 +9,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.mobile_platform.control import PlatformState
-from hex_control.mobile_platform.model import (
+from hex_control.seeds.mobile_platform.control import PlatformState
+from hex_control.seeds.mobile_platform.model import (
     PlatformParameters,
     appell_gibbs_accelerations,
     lagrange_accelerations,
     required_friction,
 )
-from hex_control.mobile_platform.odometry import EncoderOdometry
-from hex_control.mobile_platform.path import DesiredMotion
+from hex_control.seeds.mobile_platform.odometry import EncoderOdometry
+from hex_control.seeds.mobile_platform.path import DesiredMotion
 
 
 @dataclass(frozen=True)

@@ -8,10 +8,10 @@ from dataclasses import dataclass
 import yaml
 
 from hex_control.config import config_path
-from hex_control.milling.cutting import Cut
-from hex_control.milling.optimal_speed import OptimalLinearSpeed
-from hex_control.milling.programmes import seed_programmes
-from hex_control.milling.tool_beam import BeamTool, ToolModes
+from hex_control.seeds.milling.cutting import Cut
+from hex_control.seeds.milling.optimal_speed import OptimalLinearSpeed
+from hex_control.seeds.milling.programmes import seed_programmes
+from hex_control.seeds.milling.tool_beam import BeamTool, ToolModes
 
 
 @dataclass(frozen=True)

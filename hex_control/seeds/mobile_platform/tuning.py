@@ -2,13 +2,13 @@
 sum |H - H_bar| t dt along Fig. 7's path, summed over the platform as modelled and as
 loaded (case.tuning_plants: gains tuned on one plant alone sat at its stability margin and
 oscillated on the other), minimized by the project's one tuner
-(hex_control.studies.tuning.minimize_itae). The seed tuned its PIDs by trial and error."""
+(hex_control.control.itae.minimize_itae). The seed tuned its PIDs by trial and error."""
 
 from __future__ import annotations
 
-from hex_control.mobile_platform.case import PlatformCase
-from hex_control.mobile_platform.simulation import tracking_figures
-from hex_control.studies.tuning import minimize_itae
+from hex_control.control.itae import minimize_itae
+from hex_control.seeds.mobile_platform.case import PlatformCase
+from hex_control.seeds.mobile_platform.simulation import tracking_figures
 
 
 def controller_itae(case: PlatformCase, make_controller, desired=None) -> float:

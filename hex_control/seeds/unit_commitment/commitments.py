@@ -23,8 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.unit_commitment.dispatch import economic_dispatch
-from hex_control.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.fleet import Fleet
 
 
 @dataclass(frozen=True)

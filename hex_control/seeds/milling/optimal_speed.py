@@ -22,9 +22,9 @@ import math
 import numpy as np
 from scipy.linalg import expm
 
-from hex_control.milling.cutting import Cut, cutting_force
-from hex_control.milling.semi_discretization import directional_matrix
-from hex_control.milling.tool_beam import ToolModes
+from hex_control.seeds.milling.cutting import Cut, cutting_force
+from hex_control.seeds.milling.semi_discretization import directional_matrix
+from hex_control.seeds.milling.tool_beam import ToolModes
 
 
 def mean_cutting_force(cut: Cut, samples: int = 720) -> np.ndarray:

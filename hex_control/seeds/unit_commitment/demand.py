@@ -13,8 +13,8 @@ import numpy as np
 import yaml
 
 from hex_control.config import config_path
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.storage import Storage
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.storage import Storage
 
 
 @dataclass(frozen=True)

@@ -34,10 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from hex_control.unit_commitment.dispatch import economic_dispatch
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.storage import Storage, flatten
-from hex_control.unit_commitment.table import TableRow, candidates_at
+from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.storage import Storage, flatten
+from hex_control.seeds.unit_commitment.table import TableRow, candidates_at
 
 CAP_HOURS = 6  # the tables' last column: a longer down time costs as much to start
 
@@ -174,7 +174,7 @@ def exact_schedule(fleet: Fleet, generation_mw, initially_on=None) -> DaySchedul
 def schedule_from_table(fleet: Fleet, generation_mw, table: list[TableRow], initially_on=None,
                         also=None, borrow: int = 2) -> DaySchedule:
     """The cheapest day whose hours each use one of the table's candidates at their
-    generation (:func:`~hex_control.unit_commitment.table.candidates_at`), one of the
+    generation (:func:`~hex_control.seeds.unit_commitment.table.candidates_at`), one of the
     ``borrow`` cheapest at another hour's generation (so that a unit may stay on through
     hours whose own cheapest commitments have it off, rather than pay to start again), or
     the commitment ``also[t]`` if given."""
@@ -206,7 +206,7 @@ class _Committed:
         """(T,) running cost and incremental cost of each hour's economic dispatch of
         ``generation_mw`` (within the hour's bounds), all hours at once and exactly: each
         hour's total is piecewise linear in lambda between the units' breakpoints (as in
-        :func:`~hex_control.unit_commitment.dispatch.economic_dispatch`)."""
+        :func:`~hex_control.seeds.unit_commitment.dispatch.economic_dispatch`)."""
         breakpoints = np.unique(np.concatenate([self.a2 + 2 * self.a3 * self.g_min,
                                                 self.a2 + 2 * self.a3 * self.g_max]))
         totals = self.on @ np.clip((breakpoints[:, None] - self.a2) / (2 * self.a3), self.g_min, self.g_max).T

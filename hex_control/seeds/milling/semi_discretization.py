@@ -20,8 +20,8 @@ from dataclasses import replace
 import numpy as np
 from scipy.linalg import expm
 
-from hex_control.milling.cutting import Cut
-from hex_control.milling.tool_beam import ToolModes
+from hex_control.seeds.milling.cutting import Cut
+from hex_control.seeds.milling.tool_beam import ToolModes
 
 
 def _modal_system(modes: ToolModes):

@@ -9,11 +9,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hex_control.milling.case import ChatterCase
-from hex_control.milling.lobes import chatter_frequency, depth_limit, stability_lobes
-from hex_control.milling.plots import plot_lobes, plot_programmes, plot_spectra
-from hex_control.milling.report import compare_programmes, programme_table
-from hex_control.milling.semi_discretization import critical_depth, spectral_radius
+from hex_control.seeds.milling.case import ChatterCase
+from hex_control.seeds.milling.lobes import chatter_frequency, depth_limit, stability_lobes
+from hex_control.seeds.milling.plots import plot_lobes, plot_programmes, plot_spectra
+from hex_control.seeds.milling.report import compare_programmes, programme_table
+from hex_control.seeds.milling.semi_discretization import critical_depth, spectral_radius
 
 
 def zero_order_lobes(case: ChatterCase):

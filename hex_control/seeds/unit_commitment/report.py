@@ -14,13 +14,13 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from hex_control.unit_commitment.day import deterministic_schedule
-from hex_control.unit_commitment.demand import example_day
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.online import LoadFluctuation, compare_online, reserved_store
-from hex_control.unit_commitment.plots import plot_day, plot_online, plot_table
-from hex_control.unit_commitment.storage import Storage
-from hex_control.unit_commitment.table import load_table, save_table, scheduling_table
+from hex_control.seeds.unit_commitment.day import deterministic_schedule
+from hex_control.seeds.unit_commitment.demand import example_day
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.online import LoadFluctuation, compare_online, reserved_store
+from hex_control.seeds.unit_commitment.plots import plot_day, plot_online, plot_table
+from hex_control.seeds.unit_commitment.storage import Storage
+from hex_control.seeds.unit_commitment.table import load_table, save_table, scheduling_table
 
 
 def table_for(fleet: Fleet, output: Path, k: int, step_mw: float) -> tuple[list, float | None]:
@@ -66,7 +66,7 @@ def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, mi
                "transfers_mw": plan.transfers_mw.round(1).tolist(),
                "units_on": [int(sum(on)) for on in plan.schedule.commitments]}
     if milp:
-        from hex_control.unit_commitment.milp import milp_schedule
+        from hex_control.seeds.unit_commitment.milp import milp_schedule
 
         start = time.perf_counter()
         peer = milp_schedule(fleet, day.demand_mw, day.storage, mip_rel_gap=1e-3)

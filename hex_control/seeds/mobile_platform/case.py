@@ -8,10 +8,10 @@ from dataclasses import dataclass, replace
 import yaml
 
 from hex_control.config import config_path
-from hex_control.mobile_platform.control import EnergyIndexController, TwoPidController
-from hex_control.mobile_platform.model import PlatformParameters
-from hex_control.mobile_platform.path import DesiredMotion, PathSpec, desired_motion
-from hex_control.mobile_platform.simulation import simulate_platform
+from hex_control.seeds.mobile_platform.control import EnergyIndexController, TwoPidController
+from hex_control.seeds.mobile_platform.model import PlatformParameters
+from hex_control.seeds.mobile_platform.path import DesiredMotion, PathSpec, desired_motion
+from hex_control.seeds.mobile_platform.simulation import simulate_platform
 
 
 @dataclass(frozen=True)

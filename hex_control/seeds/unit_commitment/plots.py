@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 
 from hex_control.plotting import plt, save
-from hex_control.unit_commitment.dispatch import economic_dispatch
-from hex_control.unit_commitment.fleet import Fleet
-from hex_control.unit_commitment.table import TableRow, commitment_class
+from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.table import TableRow, commitment_class
 
 
 def plot_table(path, fleet: Fleet, rows: list[TableRow]) -> None:
