@@ -17,18 +17,23 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hexctl", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
 
-    demo = commands.add_parser("demo", help="the main job: the whole hierarchy grinds a weld bead on the plant")
+    # the run's options default to None here (hex_control.nodes.grind_job.RUN_DEFAULTS fills
+    # them): --resume must tell an option given from one left out
+    demo = commands.add_parser("demo", help="the main job: the whole hierarchy grinds a weld bead on the plant",
+                               epilog="exit codes: 0 the job(s) ended as the policy intended, without burn; 1 not; "
+                                      "2 a bad option or input; 3 the graph failed (a node died, its loop stood)")
     demo.add_argument("--output", default="output/demo", help="report directory")
-    demo.add_argument("--deadline", type=float, default=100.0, help="the job's deadline (s)")
-    demo.add_argument("--seed", type=int, default=0, help="process-variation seed of the (first) job")
-    demo.add_argument("--jobs", type=int, default=1, help="seeded jobs to run one after the other (statistics)")
-    demo.add_argument("--realtime", action="store_true", help="plant in real time (watch it live) instead of lock-step")
-    demo.add_argument("--real-time-factor", type=float, default=1.0, help="with --realtime: sim speed vs wall")
-    demo.add_argument("--bead-length", type=float, default=300.0, help="bead length (mm)")
-    demo.add_argument("--bead-height", type=float, default=1.0, help="bead height (mm)")
-    demo.add_argument("--dulling", type=float, default=0.0, help="K1 growth per pass (a disk that dulls)")
-    demo.add_argument("--machine", choices=sorted(MACHINES), default="hexapod",
-                      help="the NIST-like hexapod, or the 3-PRU head on a feed stage")
+    demo.add_argument("--deadline", type=float, default=None, help="the job's deadline (s; default 100)")
+    demo.add_argument("--seed", type=int, default=None, help="process-variation seed of the (first) job (default 0)")
+    demo.add_argument("--jobs", type=int, default=None, help="seeded jobs to run one after the other (statistics)")
+    demo.add_argument("--realtime", action="store_true", default=None,
+                      help="plant in real time (watch it live) instead of lock-step")
+    demo.add_argument("--real-time-factor", type=float, default=None, help="with --realtime: sim speed vs wall (1)")
+    demo.add_argument("--bead-length", type=float, default=None, help="bead length (mm; default 300)")
+    demo.add_argument("--bead-height", type=float, default=None, help="bead height (mm; default 1)")
+    demo.add_argument("--dulling", type=float, default=None, help="K1 growth per pass (a disk that dulls; default 0)")
+    demo.add_argument("--machine", choices=sorted(MACHINES), default=None,
+                      help="the NIST-like hexapod (default), or the 3-PRU head on a feed stage")
     demo.add_argument("--restart-planner-after", type=int, default=None, metavar="K",
                       help="fault drill: kill the sequence planner after pass K and restart it")
     demo.add_argument("--machine-host", default="", help="command prefix that puts the machine-side nodes on "
@@ -38,8 +43,10 @@ def _parser() -> argparse.ArgumentParser:
                       "rosbag2's MCAP layout, for Foxglove, PlotJuggler, hexctl play)")
     demo.add_argument("--resume", metavar="DIR", default=None,
                       help="take up the unfinished job of a run cut off in DIR (its --output): the planner resumes it "
-                           "from DIR/jobs, the plant the part as last scanned; without it every run starts afresh")
-    demo.add_argument("--namespace", default="", help="run the cell under this namespace, e.g. /cell2 (one "
+                           "from DIR/jobs, the plant the part as last scanned, with the options the run started with "
+                           "(DIR/run.json: its seed ...; one given that differs is an error); without it every run "
+                           "starts afresh")
+    demo.add_argument("--namespace", default=None, help="run the cell under this namespace, e.g. /cell2 (one "
                       "namespace holds one cell; cells side by side in a domain do not meet)")
 
     predictor = commands.add_parser("demo-load-predictor", help="the Kalman load predictor alone over ROS 2")
@@ -480,6 +487,27 @@ def _exit_on_sigterm(signum, frame):
     raise SystemExit(128 + signum)
 
 
+def _demo(args) -> int:
+    """``hexctl demo``: the run's options (resumed: the stored ones, a conflict refused), the
+    run; a graph that fails (a node died, the loop stood) is one line on stderr and exit 3."""
+    from hex_control.nodes.grind_job import RUN_DEFAULTS, GraphFailure, run_demo, run_options
+
+    given = {name: getattr(args, name) for name in RUN_DEFAULTS if getattr(args, name) is not None}
+    if args.resume is not None and args.jobs not in (None, 1):
+        raise ValueError(f"--resume takes up one job, not --jobs {args.jobs}")
+    options = run_options(given, args.resume)
+    try:
+        return run_demo(args.resume or args.output, options, machine_file=MACHINES[options["machine"]],
+                        jobs=args.jobs or 1, machine_host=args.machine_host.split() or None,
+                        machine_peers=args.machine_peers, restart_planner_after=args.restart_planner_after,
+                        record=not args.no_record, resume=args.resume is not None)
+    except (GraphFailure, TimeoutError) as exc:  # a graph that did not start or answer: TimeoutError
+        if _terminated_by is not None:  # the nodes stopped because hexctl was told to stop
+            return 128 + _terminated_by
+        print(f"hexctl demo: {getattr(exc, 'one_line', exc)}", file=sys.stderr)
+        return 3
+
+
 def _bag_info(directory: str) -> int:
     from hex_control.recording.bag import bag_info
 
@@ -580,13 +608,7 @@ def main(argv=None) -> int:
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         if args.command == "demo":
-            from hex_control.nodes.grind_job import run_demo
-
-            return run_demo(args.resume or args.output, args.deadline, args.seed, args.jobs,
-                            "realtime" if args.realtime else "lockstep", args.real_time_factor,
-                            args.bead_length, args.bead_height, args.dulling,
-                            args.machine_host.split() or None, args.machine_peers, MACHINES[args.machine],
-                            args.restart_planner_after, args.namespace, not args.no_record, args.resume is not None)
+            return _demo(args)
         if args.command == "demo-load-predictor":
             from hex_control.nodes.demo_load_predictor import run_demo
 

@@ -307,3 +307,90 @@ def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossin
         assert {f"/cell{k}/{topic}" for topic in GRAPH_TABLE} <= set(recorded), sorted(recorded)
         assert all(topic.startswith(f"/cell{k}/") for topic in recorded)
         assert recorded[f"/cell{k}/grinding/pass_command"] >= outcomes[session.seed]["passes"]
+
+
+def test_a_namespaced_cell_runs_the_same_job_as_the_root(ros_env, tmp_path):
+    """Issue 37 item 7: every node and every parameter file lands in the cell's namespace, so
+    the same seed gives the same job under /cell3 as at the root, to 1e-9: the remaining
+    height, the charge and the K1 every pass was planned with (before, the pass predictor ran
+    as /cell3/pass with default parameters on the root's results: K1 plan 10.0 every pass).
+    The two cells run at once, in one domain."""
+    import threading
+
+    sessions = {namespace: JobSession(tmp_path / (namespace.strip("/") or "root"), seed=5, plant_overrides=BEAD,
+                                      namespace=namespace, record=False) for namespace in ("", "/cell3")}
+    outcomes = {}
+    with sessions[""], sessions["/cell3"]:
+        for session in sessions.values():
+            session.start_job(30.0, RESET_TIME_S, job_id="same-job")
+        threads = [threading.Thread(target=lambda n=n, s=s: outcomes.update({n: s.wait_for_outcome(600.0)}))
+                   for n, s in sessions.items()]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+    root, cell = (sessions[n].record for n in ("", "/cell3"))
+    assert outcomes[""]["passes"] >= 2 and outcomes[""]["reason"] in ("done", "quit"), outcomes
+    plans = {n: [sessions[n].record.commands[k]["specific_energy_j_mm3"] for k in range(outcomes[n]["passes"])]
+             for n in outcomes}
+    assert plans[""][0] == 10.0 and plans[""][1] != 10.0, plans  # the predictor moved K1 after pass 0
+    assert cell.k1_predictions and root.k1_predictions  # each cell's observer heard its own predictor
+    for key in ("passes", "reason"):
+        assert outcomes["/cell3"][key] == outcomes[""][key], key
+    for key in ("material_remaining_mm", "total_charge", "time_remaining_s"):
+        assert outcomes["/cell3"][key] == pytest.approx(outcomes[""][key], abs=1e-9), key
+    assert plans["/cell3"] == pytest.approx(plans[""], abs=1e-9)
+    for k in range(outcomes[""]["passes"]):
+        assert cell.commands[k] == pytest.approx(root.commands[k], abs=1e-9), k
+        assert cell.results[k]["measured_cut_depth_mm"] == pytest.approx(root.results[k]["measured_cut_depth_mm"],
+                                                                         abs=1e-9)
+
+
+def _job_log_results(jobs: Path) -> int:
+    results = 0
+    for log in jobs.glob("*.jsonl"):
+        results += sum('"type": "result"' in line for line in log.read_text().splitlines())
+    return results
+
+
+def test_a_node_killed_under_hexctl_demo_ends_it_in_one_line_and_resume_keeps_the_seed(ros_env, tmp_path):
+    """Issue 37 item 7: a node that dies under ``hexctl demo`` ends it with one line naming
+    the node, its exit code and its log, and exit code 3 (before: a traceback, 1); the run's
+    options were stored when it started, so ``--resume`` grinds on with its seed (before: 0);
+    a conflicting option on the resume is refused in one line."""
+    out, err = tmp_path / "demo.stdout", tmp_path / "demo.stderr"
+    with out.open("w") as stdout, err.open("w") as stderr:
+        demo = subprocess.Popen(_hexctl_demo(tmp_path, "--deadline", "22", "--seed", "6", "--no-record"),
+                                env=ros_env, stdout=stdout, stderr=stderr)
+    try:
+        wait_until(lambda: _job_log_results(tmp_path / "jobs") >= 1 or demo.poll() is not None, 300.0,
+                   interval_s=0.2, what="the first pass's result in the job log")
+        assert demo.poll() is None, out.read_text()[-3000:] + err.read_text()[-3000:]
+        [plant] = [pid for pid in _processes_writing_to(tmp_path / "logs")
+                   if os.readlink(f"/proc/{pid}/fd/1") == str(tmp_path / "logs" / "plant.log")]
+        os.kill(plant, signal.SIGKILL)
+        assert demo.wait(timeout=120) == 3, err.read_text()[-3000:]
+        assert _processes_writing_to(tmp_path / "logs") == []
+    finally:
+        demo.kill()
+        for pid in _processes_writing_to(tmp_path / "logs"):
+            os.kill(pid, signal.SIGKILL)
+    assert err.read_text() == (f"hexctl demo: node plant was killed by SIGKILL (exit code -9); its log: "
+                               f"{tmp_path}/logs/plant.log; hexctl demo --resume {tmp_path} takes up its job\n")
+    assert "Traceback" not in out.read_text()
+    assert json.loads((tmp_path / "run.json").read_text())["seed"] == 6
+
+    hexctl = str(Path(sys.executable).parent / "hexctl")
+    refused = subprocess.run([hexctl, "demo", "--resume", str(tmp_path), "--seed", "0"], env=ros_env,
+                             capture_output=True, text=True, timeout=60)
+    assert refused.returncode == 2 and refused.stderr.count("\n") == 1, refused.stderr
+    assert "--seed 0 (the run's: 6)" in refused.stderr
+
+    resumed = subprocess.run([hexctl, "demo", "--resume", str(tmp_path), "--no-record"], env=ros_env,
+                             capture_output=True, text=True, timeout=400)
+    assert resumed.returncode == 0, resumed.stdout[-3000:] + resumed.stderr[-3000:]
+    assert "resuming the unfinished job" in resumed.stdout and "(seed 6)" in resumed.stdout
+    summary = json.loads((tmp_path / "job.json").read_text())
+    assert summary["goal"]["seed"] == 6 and summary["goal"]["resumed_at_pass"] >= 1
+    assert summary["ended_as_intended"]
+    assert "seed=6" in (tmp_path / "logs" / "plant.log").read_text()  # the resumed plant's start-up line

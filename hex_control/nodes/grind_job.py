@@ -6,13 +6,17 @@ the sequence planner, and records over ROS 2 what the tiers hand each other: pas
 force trajectories, measured forces, strut lengths, pass results and contours. It prints a
 pass-by-pass table as the job goes and writes the report (:mod:`hex_control.grinding.job_report`).
 
-Exit code 0 only if the job ended as the policy intended (done, or Quit Now).
+Exit code 0 only if the job ended as the policy intended (done, or Quit Now); a node that
+dies or a loop that stands ends the run with one line and exit code 3 (:class:`GraphFailure`,
+``hexctl demo``). Each run's options are stored in its directory (``RUN_FILE``) when it
+starts: ``--resume`` takes them up (its seed), and refuses one given that differs.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 from pathlib import Path
 
@@ -29,7 +33,7 @@ from hex_control.grinding.job import read_goal, read_log, unfinished_logs
 from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
-from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
+from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges, validated_namespace
 from hex_control.nodes.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control.nodes.messages import to_primitive
 from hex_control.nodes.recorder import Recorder
@@ -162,6 +166,38 @@ STALL_S = 60.0
 LOOP_START_S = 30.0
 
 
+class GraphFailure(RuntimeError):
+    """The graph stopped doing its job (a node died, the loop stands): not the job's outcome.
+    ``one_line`` says it for ``hexctl demo``; ``resume_dir``, once set, the directory whose
+    unfinished job ``--resume`` takes up."""
+
+    def __init__(self, text: str, detail: str = ""):
+        super().__init__(text + (f":\n{detail}" if detail else ""))
+        self.text, self.resume_dir = text, None
+
+    @property
+    def one_line(self) -> str:
+        resume = f"; hexctl demo --resume {self.resume_dir} takes up its job" if self.resume_dir else ""
+        return self.text + resume
+
+
+class NodeDied(GraphFailure):
+    """A node of the graph exited on its own (``code``: its exit code, -N for signal N)."""
+
+    def __init__(self, name: str, code: int, log_path: Path, tail: str = ""):
+        how = f"was killed by {signal_name(-code)} (exit code {code})" if code < 0 else f"exited with code {code}"
+        super().__init__(f"node {name} {how}; its log: {log_path}", tail)
+        self.name, self.code, self.log_path = name, code, Path(log_path)
+
+
+def signal_name(number: int) -> str:
+    """SIGKILL for 9; 'signal N' for a number that names none."""
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
+
+
 def fresh_recording_dir(output: Path) -> Path:
     """``output/recording``, an earlier run's moved aside to ``recording-<n>``."""
     directory = output / "recording"
@@ -256,7 +292,7 @@ class JobSession:
                 raise TimeoutError(f"timed out after {timeout_s:g} s waiting for {what}")
             if self.graph.dead():
                 name, code = next(iter(self.graph.dead().items()))
-                raise RuntimeError(f"node {name} exited with {code}:\n{self.graph.log_tail(name)}")
+                raise NodeDied(name, code, self.graph.log_path(name), self.graph.log_tail(name))
             self.executor.spin_once(timeout_sec=0.05)
         return value
 
@@ -334,8 +370,9 @@ class JobSession:
             if sim_s != clock["sim_s"] or not in_pass:
                 clock.update(sim_s=sim_s, since=time.monotonic())
             elif time.monotonic() - clock["since"] > STALL_S:
-                raise RuntimeError(f"the plant's clock has stood at {sim_s} s for {STALL_S:g} s: nothing answers "
-                                   f"its lock-step loop (see logs/plant.log and logs/force_controller.log)")
+                raise GraphFailure(f"the plant's clock has stood at {sim_s} s for {STALL_S:g} s: nothing answers "
+                                   f"its lock-step loop (see {self.graph.log_path('plant')} and "
+                                   f"{self.graph.log_path('force_controller')})")
             for index in sorted(set(record.results) - seen):
                 if index in record.commands:
                     seen.add(index)
@@ -475,32 +512,91 @@ def use_private_domain(environment) -> bool:
     return True
 
 
-def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, real_time_factor: float,
-             bead_length_mm: float, bead_height_mm: float, dulling_per_pass: float,
-             machine_host: list[str] | None = None, machine_peers: str = "",
-             machine_file: str = "machines/nist_ingersoll.yaml", restart_planner_after: int | None = None,
-             namespace: str = "", record: bool = True, resume: bool = False) -> int:
+#: in a demo run's directory: the options it was started with, taken up by ``--resume``
+RUN_FILE = "run.json"
+#: ``hexctl demo``'s options that make a run what it is (its command-line names) and their defaults
+RUN_DEFAULTS = {"seed": 0, "deadline": 100.0, "realtime": False, "real_time_factor": 1.0, "bead_length": 300.0,
+                "bead_height": 1.0, "dulling": 0.0, "machine": "hexapod", "namespace": ""}
+
+
+def _normalized(options: dict) -> dict:
+    """Each option as its default's type (60 and 60.0 are one deadline; a namespace as ROS writes it)."""
+    out = {name: type(RUN_DEFAULTS[name])(value) for name, value in options.items()}
+    if "namespace" in out:
+        out["namespace"] = validated_namespace(out["namespace"])
+    return out
+
+
+def run_options(given: dict, resume_dir: str | Path | None = None) -> dict:
+    """The options of a demo run (RUN_DEFAULTS' keys): ``given`` (those on the command line,
+    only the ones given) over the defaults; resuming the run in ``resume_dir``, the options it
+    stored when it started (RUN_FILE). ValueError if a given option differs from the stored
+    one, or if nothing is stored and no --seed is given (a run from before the options were
+    kept: its seed is unknown)."""
+    unknown = set(given) - set(RUN_DEFAULTS)
+    if unknown:
+        raise ValueError(f"not run options: {', '.join(sorted(unknown))}")
+    given = _normalized(given)
+    if resume_dir is None:
+        return {**RUN_DEFAULTS, **given}
+    path = Path(resume_dir) / RUN_FILE
+    if not path.exists():
+        if "seed" not in given:
+            raise ValueError(f"{path} is missing (a run started before its options were kept): give the run's "
+                             "--seed and other options to resume it")
+        return {**RUN_DEFAULTS, **given}
+    import json
+
+    stored = _normalized({name: value for name, value in json.loads(path.read_text()).items() if name in RUN_DEFAULTS})
+    conflicts = [f"--{name.replace('_', '-')} {value!r} (the run's: {stored[name]!r})" for name, value in given.items()
+                 if name in stored and value != stored[name]]
+    if conflicts:
+        raise ValueError(f"--resume {resume_dir} keeps the options the run started with ({path}); these differ: "
+                         f"{'; '.join(conflicts)}. Leave them out or give the run's")
+    return {**RUN_DEFAULTS, **given, **stored}
+
+
+def store_run_options(directory: Path, options: dict) -> Path:
+    """``directory/RUN_FILE`` with the run's ``options`` (RUN_DEFAULTS' keys), for ``--resume``."""
+    import json
+
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / RUN_FILE
+    path.write_text(json.dumps({name: options[name] for name in RUN_DEFAULTS}, indent=2) + "\n")
+    return path
+
+
+def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_ingersoll.yaml", jobs: int = 1,
+             machine_host: list[str] | None = None,
+             machine_peers: str = "", restart_planner_after: int | None = None, record: bool = True,
+             resume: bool = False) -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
-    the statistics. 0 only if every job ended as its policy intended, without burn. The
-    graph runs in a ROS domain of its own unless ROS_DOMAIN_ID is set, and under
-    ``namespace`` if given; each job's messages are recorded into its ``recording/``.
-    ``resume``: take up the unfinished job of an earlier run cut off in ``output`` (its
-    deadline and t_R come from its log) instead."""
+    the statistics. ``options``: :func:`run_options` (seed, deadline, bead, machine,
+    namespace ...), stored into each job's directory as it starts; ``machine_file``: the
+    machine option's file (config/machines/). 0 only if every job ended
+    as its policy intended, without burn. The graph runs in a ROS domain of its own unless
+    ROS_DOMAIN_ID is set, and under the ``namespace`` option if given; each job's messages
+    are recorded into its ``recording/``. ``resume``: take up the unfinished job of an earlier
+    run cut off in ``output`` (its deadline and t_R come from its log, the rest of its options
+    from its RUN_FILE, through ``options``) instead. A node that dies or a loop that stands
+    raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
     import json
 
     from hex_control.grinding.job_report import job_statistics, write_report
 
+    seed, deadline_s = options["seed"], options["deadline"]
+    mode = "realtime" if options["realtime"] else "lockstep"
     if use_private_domain(os.environ):
         print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
               "to run it in yours)")
     out = Path(output)
     if resume:
         jobs, reset_time_s = 1, None
-        print(f"resuming the unfinished job of {resumable_job_dir(out)}")
+        print(f"resuming the unfinished job of {resumable_job_dir(out)} (seed {seed})")
     else:
-        reset_time_s = _calibrated_reset_time(bead_length_mm, deadline_s, machine_file)
-    overrides = {"bead_length_mm": float(bead_length_mm), "bead_height_mm": float(bead_height_mm),
-                 "dulling_per_pass": float(dulling_per_pass)}
+        reset_time_s = _calibrated_reset_time(options["bead_length"], deadline_s, machine_file)
+    overrides = {"bead_length_mm": float(options["bead_length"]), "bead_height_mm": float(options["bead_height"]),
+                 "dulling_per_pass": float(options["dulling"])}
     placement = None
     if machine_host:  # the machine-side nodes on another host (network namespace) with its DDS peers
         placement = {name: (machine_host, {"ROS_STATIC_PEERS": machine_peers} if machine_peers else {})
@@ -509,11 +605,18 @@ def run_demo(output: str, deadline_s: float, seed: int, jobs: int, mode: str, re
     summaries = []
     for k in range(jobs):
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
+        if not resume:
+            store_run_options(directory, {**options, "seed": seed + k})
         start = time.monotonic()
-        record = run_job(directory, deadline_s, seed + k, mode, real_time_factor, reset_time_s,
-                         overrides, quiet=jobs > 1, placement=placement,
-                         machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
-                         namespace=namespace, record=record, resume=resume)
+        try:
+            record = run_job(directory, deadline_s, seed + k, mode, options["real_time_factor"], reset_time_s,
+                             overrides, quiet=jobs > 1, placement=placement,
+                             machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
+                             namespace=options["namespace"], record=record, resume=resume)
+        except GraphFailure as exc:
+            jobs_dir = directory / "jobs"
+            exc.resume_dir = directory if jobs_dir.is_dir() and unfinished_logs(jobs_dir) else None
+            raise
         wall = time.monotonic() - start
         policy, charges = start_policy(record)
         summary = write_report(record, directory, policy)
