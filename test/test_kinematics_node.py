@@ -1,4 +1,5 @@
-"""Node kinematics over real processes: services, bad requests, the setpoint stream."""
+"""Node kinematics over real processes: services, bad requests, the relays and their owner,
+a heavy request beside the rest (the behaviour itself: test_kinematics_service.py)."""
 
 import math
 import time
@@ -12,16 +13,66 @@ from sensor_msgs.msg import JointState
 from hex_control.config import config_file
 from hex_control.kinematics import load_machine
 from hex_control.kinematics.rotation import quaternion_from_rpy
+from hex_control.kinematics.service import MAX_POSES
 from hex_control.kinematics.stewart import strut_lengths
 from hex_control.kinematics.workspace import compute_workspace
+from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
 from hex_control_msgs.msg import KinematicsErrorCode as Code
-from hex_control_msgs.msg import ToolPose
+from hex_control_msgs.msg import ToolPath, ToolPose
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
-from ros_harness import wait_until
+from ros_harness import diagnostics_value, wait_until
 
 NIST, NIST_DOC = load_machine(config_file("machines/nist_ingersoll.yaml"))
 REACHABLE = ToolPose(x_mm=100.0, y_mm=-50.0, z_mm=-2100.0, roll_rad=0.05)
 UNREACHABLE = ToolPose(z_mm=-5000.0)
+PATH = np.column_stack([np.linspace(-50, 50, 400), np.zeros(400), np.full(400, -2100.0),
+                        np.full(400, 0.02), np.zeros(400), np.zeros(400)])
+
+
+def owner(ros, name: str = "input_shaper", namespace: str = "/kin"):
+    """A node named as the kinematics node's configured source (the input shaper of /kin)."""
+    import rclpy
+
+    return ros.add(rclpy.create_node(name, namespace=namespace, context=ros.context))
+
+
+def tool_path(rows, pass_index: int) -> ToolPath:
+    msg = ToolPath(job_id="job-k", pass_index=pass_index, sample_period_s=0.005)
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 7, 500_000_000
+    for k, name in enumerate(PATH_FIELDS):
+        setattr(msg, name, rows[:, k].tolist())
+    return msg
+
+
+def test_the_reports_are_the_messages_rosidl_builds():
+    """The node fills ConstraintReport's slots (8x faster than its constructor): same messages."""
+    from hex_control.kinematics.service import KinematicsCore
+    from hex_control.nodes.kinematics_messages import _FAST, constraint_reports, pose_rows
+    from hex_control_msgs.msg import ConstraintReport
+
+    assert _FAST
+
+    def angles(values, k):
+        return [] if values is None else values[k].tolist()
+    poses = [REACHABLE, UNREACHABLE, ToolPose(x_mm=1.0, y_mm=2.0, z_mm=-2000.0, roll_rad=0.1, pitch_rad=0.2,
+                                              yaw_rad=0.3)]
+    rows = pose_rows(poses)
+    assert rows.tolist() == [[p.x_mm, p.y_mm, p.z_mm, p.roll_rad, p.pitch_rad, p.yaw_rad] for p in poses]
+    for machine, document, sample in ((NIST, NIST_DOC, rows),
+                                      (*load_machine(config_file("machines/pru3.yaml")), [[0, 0, 220.0, 0.1, 0, 0]])):
+        check = KinematicsCore(machine, document).inverse(sample).check
+        slow = [ConstraintReport(
+            reachable=bool(check.reachable[k]), strut_lengths_ok=bool(check.satisfied[k, 0]),
+            platform_joints_ok=bool(check.satisfied[k, 1]), base_joints_ok=bool(check.satisfied[k, 2]),
+            strut_distances_ok=bool(check.satisfied[k, 3]), strut_length_margin_mm=float(check.margins[k, 0]),
+            platform_joint_margin_rad=float(check.margins[k, 1]), base_joint_margin_rad=float(check.margins[k, 2]),
+            strut_distance_margin_mm=float(check.margins[k, 3]),
+            strut_lengths_mm=np.nan_to_num(check.positions_mm[k], nan=0.0).tolist(),
+            platform_joint_angles_rad=angles(check.platform_joint_angles_rad, k),
+            base_joint_angles_rad=angles(check.base_joint_angles_rad, k)) for k in range(len(sample))]
+        fast = constraint_reports(check)
+        assert fast == slow and repr(fast) == repr(slow)
+        assert [list(r.strut_lengths_mm) for r in fast] == [list(r.strut_lengths_mm) for r in slow]
 
 
 @pytest.fixture(scope="module")
@@ -112,11 +163,14 @@ def test_a_long_workspace_request_does_not_block_the_other_services(ros, client)
 
 
 def test_setpoint_stream_commands_struts_and_refuses_bad_poses(ros, kinematics_process):
+    """Only the configured owner's setpoints (the input shaper of /kin) reach the plant: the
+    plant obeys this node, so a setpoint from anyone else is refused and counted."""
     commands = ros.collect(JointState, "/kin/plant/strut_command", publishers=1)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
-    node = ros.node("setpoints")
-    publisher = node.create_publisher(PoseStamped, "/kin/motion/setpoint", 10)
-    ros.wait_for_match(node, "/kin/motion/setpoint", subscribers=1)
+    publisher = owner(ros).create_publisher(PoseStamped, "/kin/motion/setpoint", 10)
+    rogue = ros.node("setpoints").create_publisher(PoseStamped, "/kin/motion/setpoint", 10)
+    wait_until(lambda: publisher.get_subscription_count() >= 1 and rogue.get_subscription_count() >= 1, 15.0,
+               what="the kinematics node")
 
     def setpoint(x_m, y_m, z_m, rpy=(0.0, 0.0, 0.0), quaternion=None):
         msg = PoseStamped()
@@ -125,26 +179,24 @@ def test_setpoint_stream_commands_struts_and_refuses_bad_poses(ros, kinematics_p
         msg.pose.orientation.x, msg.pose.orientation.y, msg.pose.orientation.z, msg.pose.orientation.w = qx, qy, qz, qw
         return msg
 
+    rogue.publish(setpoint(0.0, 0.0, -2.05))                             # reachable, not the owner's
     publisher.publish(setpoint(0.1, -0.05, -2.1, (0.05, 0.0, 0.0)))     # reachable
     publisher.publish(setpoint(0.0, 0.0, -5.0))                          # unreachable
     publisher.publish(setpoint(math.nan, 0.0, -2.1))                     # malformed
     publisher.publish(setpoint(0.0, 0.0, -2.1, quaternion=(0, 0, 0, 2)))  # not a unit quaternion
     publisher.publish(setpoint(0.0, 0.0, -2.0))                          # reachable
     wait_until(lambda: len(commands) >= 2, 10.0, what="two strut commands")
-    time.sleep(0.3)
+
+    def counter(key):
+        return diagnostics_value(list(diagnostics), "/kin/kinematics", key)
+    wait_until(lambda: counter("commands") == "2" and counter("foreign_setpoint") == "1", 5.0, what="diagnostics")
     assert len(commands) == 2
     np.testing.assert_allclose(commands[0].position, strut_lengths(NIST, [100, -50, -2100, 0.05, 0, 0])[0] / 1000,
                                atol=1e-12)
+    np.testing.assert_allclose(commands[1].position, strut_lengths(NIST, [0, 0, -2000, 0, 0, 0])[0] / 1000,
+                               atol=1e-12)
     assert list(commands[0].name) == [f"strut_{i}" for i in range(6)]
-
-    def counters():
-        for array in reversed(list(diagnostics)):
-            for status in array.status:
-                if status.name == "/kin/kinematics":
-                    return {kv.key: kv.value for kv in status.values}
-        return {}
-    values = wait_until(lambda: (c := counters()).get("commands") == "2" and c, 5.0, what="diagnostics")
-    assert values["refused_unreachable"] == "1" and values["rejected_malformed"] == "2"
+    assert counter("refused_unreachable") == "1" and counter("rejected_malformed") == "2"
 
 
 def test_pru3_machine(ros, spawn):
@@ -184,34 +236,82 @@ def test_pru3_on_a_feed_stage(ros, spawn):
 
 def test_a_tool_path_becomes_one_strut_trajectory_or_is_refused_whole(ros, kinematics_process):
     """DESIGN.md 4.1: a pass's path is converted whole, by one vectorized IK call, into the
-    JointTrajectory the plant holds; a path with one pose out of reach is refused whole."""
+    JointTrajectory the plant holds; a path with one pose out of reach is refused whole, and
+    so is a path from any node but the input shaper."""
     from trajectory_msgs.msg import JointTrajectory
 
-    from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
-    from hex_control_msgs.msg import ToolPath
-
-    node = ros.node("path_source")
-    publisher = node.create_publisher(ToolPath, "/kin/motion/tool_path", LATCHED)
+    publisher = owner(ros).create_publisher(ToolPath, "/kin/motion/tool_path", LATCHED)
+    rogue = ros.node("path_source").create_publisher(ToolPath, "/kin/motion/tool_path", LATCHED)
     trajectories = ros.collect(JointTrajectory, "/kin/plant/strut_trajectory", LATCHED, publishers=1)
-    ros.wait_for_match(node, "/kin/motion/tool_path", subscribers=1)
-    poses = np.column_stack([np.linspace(-50, 50, 400), np.zeros(400), np.full(400, -2100.0),
-                             np.full(400, 0.02), np.zeros(400), np.zeros(400)])
-
-    def path(rows, pass_index):
-        msg = ToolPath(job_id="job-k", pass_index=pass_index, sample_period_s=0.005)
-        msg.header.stamp.sec, msg.header.stamp.nanosec = 7, 500_000_000
-        for k, name in enumerate(PATH_FIELDS):
-            setattr(msg, name, rows[:, k].tolist())
-        return msg
-    unreachable = poses.copy()
+    wait_until(lambda: publisher.get_subscription_count() >= 1 and rogue.get_subscription_count() >= 1, 15.0,
+               what="the kinematics node")
+    unreachable = PATH.copy()
     unreachable[200, 2] = -5000.0
-    publisher.publish(path(unreachable, 0))
-    publisher.publish(path(poses, 1))
+    rogue.publish(tool_path(PATH[::2], 9))
+    publisher.publish(tool_path(unreachable, 0))
+    publisher.publish(tool_path(PATH, 1))
     trajectory = wait_until(lambda: trajectories[-1] if trajectories else None, 10.0, what="a strut trajectory")
-    assert len(trajectories) == 1  # the first path was refused whole
+    assert len(trajectories) == 1  # the first path was refused whole, the rogue's not converted
     assert (trajectory.header.stamp.sec, trajectory.header.stamp.nanosec) == (7, 500_000_000)
     assert list(trajectory.joint_names) == [f"strut_{i}" for i in range(6)] and len(trajectory.points) == 400
     times = [p.time_from_start.sec + p.time_from_start.nanosec * 1e-9 for p in trajectory.points]
     np.testing.assert_allclose(times, np.arange(400) * 0.005, atol=1e-9)
-    np.testing.assert_allclose([p.positions for p in trajectory.points], strut_lengths(NIST, poses) / 1000.0,
+    np.testing.assert_allclose([p.positions for p in trajectory.points], strut_lengths(NIST, PATH) / 1000.0,
                                atol=1e-12)
+
+
+def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ros_env, kinematics_process):
+    """Issue 37 item 6: while another node keeps the IK service busy with cap-sized requests
+    (MAX_POSES each, about 0.5 s of work apiece here), FK and TestPose answer within 1 s and
+    a tool path is converted; a 100,000-pose request is refused at once, nothing computed."""
+    from trajectory_msgs.msg import JointTrajectory
+
+    from ros_harness import RosHarness, run_domain_id
+
+    node = ros.node("patient")
+    fk = node.create_client(ForwardKinematics, "/kin/kinematics/forward_kinematics")
+    test_pose = node.create_client(TestPose, "/kin/kinematics/test_pose")
+    lengths = strut_lengths(NIST, [0.0, 0.0, -2100.0, 0.0, 0.0, 0.0])[0].tolist()
+    ros.call(fk, ForwardKinematics.Request(strut_lengths_mm=lengths))  # matched before the clock runs
+    ros.call(test_pose, TestPose.Request(poses=[REACHABLE]))
+    publisher = owner(ros).create_publisher(ToolPath, "/kin/motion/tool_path", LATCHED)
+    trajectories = ros.collect(JointTrajectory, "/kin/plant/strut_trajectory", LATCHED, publishers=1)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    ros.wait_for_match(node, "/kin/motion/tool_path", subscribers=1)
+
+    attacker = RosHarness(run_domain_id())  # a second node with its own executor: its answers are its own work
+    try:
+        ik = attacker.node("heavy_user").create_client(InverseKinematics, "/kin/kinematics/inverse_kinematics")
+        attacker.call(ik, InverseKinematics.Request(poses=[REACHABLE]))
+        poses = [ToolPose(x_mm=float(x), z_mm=-2100.0) for x in np.linspace(-50.0, 50.0, 100_000)]
+        sent = time.monotonic()
+        oversized = ik.call_async(InverseKinematics.Request(poses=poses))
+        wait_until(oversized.done, 10.0, 0.005, what="the refusal of 100,000 poses")
+        refused_s = time.monotonic() - sent
+        heavy = [ik.call_async(InverseKinematics.Request(poses=poses[:MAX_POSES])) for _ in range(6)]
+        waits, busy = [], False
+        while not heavy[-1].done():
+            for client, request in ((fk, ForwardKinematics.Request(strut_lengths_mm=lengths)),
+                                    (test_pose, TestPose.Request(poses=[REACHABLE, UNREACHABLE]))):
+                start = time.monotonic()
+                future = client.call_async(request)
+                wait_until(future.done, 1.0, 0.002, what=f"{client.srv_name} within 1 s of a heavy request")
+                waits.append((time.monotonic() - start, future.result()))
+            if len(waits) == 4:  # the IK service is at work: a tool path now
+                publisher.publish(tool_path(PATH[:300], 2))
+            converted = any(len(t.points) == 300 for t in trajectories)
+            busy = busy or (converted and not heavy[-1].done())  # converted while the IK service works
+        wait_until(heavy[-1].done, 60.0, what="the heavy requests")
+    finally:
+        attacker.close()
+    print(f"100,000 poses refused after {refused_s:.3f} s; FK, TestPose answered in {max(w for w, _ in waits):.3f} s")
+    assert oversized.result().error_code.val == Code.INVALID_INPUT and not oversized.result().reports
+    assert refused_s < 2.0, f"refusing 100,000 poses took {refused_s:.2f} s"
+    assert all(f.result().error_code.val == Code.SUCCESS and len(f.result().reports) == MAX_POSES for f in heavy)
+    assert len(waits) >= 6, "the heavy requests were too short to show anything"
+    assert all(w.error_code.val in (Code.SUCCESS, Code.UNREACHABLE) for _, w in waits)
+    assert [w.first_unreachable_index for _, w in waits[1::2]] == [1] * len(waits[1::2])
+    assert len(trajectories[-1].points) == 300  # (a late joiner first gets the latched one of the test before)
+    assert busy, "no tool path converted while the IK service was at work"
+    wait_until(lambda: int(diagnostics_value(list(diagnostics), "/kin/kinematics", "rejected_requests") or 0) >= 1,
+               5.0, what="the refusal counted")
