@@ -42,6 +42,15 @@ from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
 
+#: PassResult.status by value (FAULTED: ran, but not as planned), GrindBead.Result.reason by value
+PASS_STATUSES = ("completed", "aborted", "rejected", "faulted")
+REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
+
+
+def name_of(names: tuple[str, ...], value: int) -> str:
+    """``names[value]``; a value the observer does not know yet (a newer message) as 'status <value>'."""
+    return names[value] if 0 <= value < len(names) else f"status {value}"
+
 
 class JobObserver(Node):
     def __init__(self, record: JobRecord, **kwargs):
@@ -101,7 +110,7 @@ class JobObserver(Node):
                 and int(msg.pass_index) not in self.record.results):  # a restarted plant reports its last again
             self.record.events.append(("result", int(msg.pass_index)))
             self.record.results[int(msg.pass_index)] = {
-                "status": ("completed", "aborted", "rejected")[msg.status], "reason": msg.reason,
+                "status": name_of(PASS_STATUSES, msg.status), "reason": msg.reason,
                 "measured_cut_depth_mm": msg.measured_cut_depth_mm, "duration_s": msg.duration_s,
                 "mean_normal_force_n": msg.mean_normal_force_n, "peak_normal_force_n": msg.peak_normal_force_n,
                 "feed_speed_mm_s": msg.feed_speed_mm_s, "specific_energy_j_mm3": msg.specific_energy_j_mm3,
@@ -393,14 +402,12 @@ class JobSession:
         while time.monotonic() < end and straggling():
             self.executor.spin_once(timeout_sec=0.05)
         finished()
-        record.outcome = {"reason": REASONS[result.reason], "message": result.message, "passes": result.passes,
+        record.outcome = {"reason": name_of(REASONS, result.reason), "message": result.message, "passes": result.passes,
                           "material_remaining_mm": result.material_remaining_mm,
                           "time_remaining_s": result.time_remaining_s, "lateness_s": result.lateness_s,
                           "total_charge": result.total_charge}
         return record.outcome
 
-
-REASONS = ("done", "quit", "cancelled", "aborted", "rejected")
 
 
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
