@@ -260,7 +260,11 @@ def test_the_graphs_pass_predictor_in_a_cell_hears_the_cells_results_with_its_pa
     """Issue 37 item 7: the pass-rate predictor as the graph starts it under /cell7 sits at
     /cell7/load_predictor/pass, takes its section of load_predictor.yaml (the drift IMM from
     the cell's K1 = 10) and hears /cell7/grinding/pass_result (before: /cell7/pass with the
-    defaults, a = 0.9 from mean 0, on the root's /grinding/pass_result)."""
+    defaults, a = 0.9 from mean 0, on the root's /grinding/pass_result). Item 3: only the
+    cell's plant's (and pass planner's) results: a forged K1 from another node is refused and
+    counted, so it cannot move the K1 the sequence planner plans with."""
+    import rclpy
+
     from hex_control.config import node_parameters
     from hex_control.nodes.graph import graph_nodes
     from hex_control_msgs.msg import PassResult
@@ -269,20 +273,28 @@ def test_the_graphs_pass_predictor_in_a_cell_hears_the_cells_results_with_its_pa
     process = NodeProcess(spec.command(), ros_env, tmp_path / "pass.log")
     try:
         predictions = ros.collect(LoadPrediction, "/cell7/load_predictor/pass/prediction", publishers=1, timeout_s=30.0)
-        source = ros.node("cell7_plant")
-        publisher = source.create_publisher(PassResult, "/cell7/grinding/pass_result", 10)
-        ros.wait_for_match(source, "/cell7/grinding/pass_result", subscribers=1, timeout_s=30.0)
-        assert source.count_subscribers("/cell7/load_predictor/grinding/pass_result") == 0
+        diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+        plant, rogue = (ros.add(rclpy.create_node(name, namespace="/cell7", context=ros.context))
+                        for name in ("plant", "rogue"))
+        publishers = {node: node.create_publisher(PassResult, "/cell7/grinding/pass_result", 10)
+                      for node in (plant, rogue)}
+        ros.wait_for_match(plant, "/cell7/grinding/pass_result", publishers=2, subscribers=1, timeout_s=30.0)
+        assert plant.count_subscribers("/cell7/load_predictor/grinding/pass_result") == 0
+        publishers[rogue].publish(PassResult(header=Header(stamp=Time(sec=9)), specific_energy_j_mm3=150.0))
         measured = [11.0, 9.5, 12.0]
         for k, value in enumerate(measured):
-            publisher.publish(PassResult(header=Header(stamp=Time(sec=10 + k)), specific_energy_j_mm3=value))
+            publishers[plant].publish(PassResult(header=Header(stamp=Time(sec=10 + k)), specific_energy_j_mm3=value))
         wait_until(lambda: len(predictions) >= len(measured), 10.0, what="predictions")
+        counts = wait_until(lambda: (d := diagnostic_values(diagnostics, "/cell7/load_predictor/pass"))
+                            .get("samples") == "3" and d, 10.0, what="the predictor's diagnostics")
     finally:
         assert process.stop() in (0, -2), process.output()
+    assert counts.get("foreign_measurements") == "1", counts
     p = node_parameters("load_predictor.yaml", "load_predictor/pass")
     reference = DriftingLoadPredictor(GaussMarkovModel(p["a"], p["process_variance"], p["measurement_variance"]),
                                       10.0, p["drift_rate_variance"], p["drift_switch_probability"],
                                       p["drift_initial_rate_variance"])
+    assert [m.measurement for m in predictions] == measured  # the forged 150 was never taken
     for msg, value in zip(predictions, measured):
         assert msg.quantity == "specific_energy_j_mm3" and msg.mean == 10.0
         assert msg.prediction == pytest.approx(reference.step(value).prediction, abs=1e-12)

@@ -35,6 +35,7 @@ TRUE_MODEL = GaussMarkovModel(a=0.95, process_variance=0.8, measurement_variance
 MEAN_FORCE_N = 40.0
 INPUT_TOPIC = "/plant/wrench"
 PREDICTION_TOPIC = "/load_predictor/force/prediction"
+SOURCE_NODE = "/synthetic_load"  # the publisher of INPUT_TOPIC, SyntheticLoadNode
 #: samples published but not yet answered, at most: well below every history depth on the way
 #: (the predictor's qos_depth 100, the recorder's 100), so a stalled process delays the demo
 #: but no KEEP_LAST queue overflows and every sample is predicted
@@ -42,9 +43,10 @@ MAX_UNANSWERED = 20
 
 
 def predictor_command() -> list[str]:
+    # the shipped force predictor, taking the load from this process's source instead of a plant
     return [sys.executable, "-m", "hex_control.nodes.load_predictor", "--ros-args",
             "-r", "__ns:=/load_predictor", "-r", "__node:=force",
-            "--params-file", str(config_file("load_predictor.yaml"))]
+            "--params-file", str(config_file("load_predictor.yaml")), "-p", f"input_owner:={SOURCE_NODE}"]
 
 
 def run_demo(output: str, samples: int, rate_hz: float, seed: int) -> int:

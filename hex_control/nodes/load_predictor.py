@@ -7,7 +7,9 @@ of a ``geometry_msgs/msg/WrenchStamped``, or ``data`` of a ``std_msgs/msg/Float6
 Topics:
     <input_topic> (param, default ``load``)   in   the measured load y(t) + L_bar; a relative
                   name resolves in the node's namespace, or with ``input_namespace`` ``parent``
-                  in the one holding it (the cell, for a predictor run under <cell>/load_predictor)
+                  in the one holding it (the cell, for a predictor run under <cell>/load_predictor);
+                  only from ``input_owner`` if set (e.g. the plant: a forged pass result does
+                  not move the K1 the sequence planner plans with)
     ~/prediction  hex_control_msgs/LoadPrediction  out  prediction of the next sample
     /diagnostics  diagnostic_msgs/DiagnosticArray  out  counters, model, warnings
 
@@ -54,6 +56,9 @@ PARAMETERS = {
     "input_namespace": Spec("node", "where a relative input_topic resolves: node (the node's namespace, as ROS "
                             "resolves it) or parent (the namespace holding the node's: the cell, for a predictor "
                             "run under <cell>/load_predictor)", choices=("node", "parent")),
+    "input_owner": Spec("", "node(s) whose input_topic messages are taken, comma-separated (others refused and "
+                        "counted as foreign_measurements); a relative name resolves where input_topic does; "
+                        "'' = every publisher"),
     "input_type": Spec("std_msgs/msg/Float64", "message type of input_topic"),
     "input_field": Spec("data", "dotted path of the numeric load field, e.g. wrench.force.z"),
     "quantity": Spec("load", "name and unit of the predicted quantity, e.g. normal_force_n"),
@@ -123,9 +128,12 @@ class LoadPredictorNode(Node):
 
         depth = p("qos_depth").value
         self._publisher = self.create_publisher(LoadPrediction, "~/prediction", depth)
-        self.input_topic = input_topic_name(p("input_topic").value, p("input_namespace").value, self.get_namespace())
+        relative_to = p("input_namespace").value
+        self.input_topic = input_topic_name(p("input_topic").value, relative_to, self.get_namespace())
+        owners = [input_topic_name(name.strip(), relative_to, self.get_namespace())
+                  for name in p("input_owner").value.split(",") if name.strip()]
         info_subscription(self, input_class, self.input_topic, self._on_measurement, depth, self.diagnostics,
-                          "measurements")
+                          "measurements", owner_node=tuple(owners) or None)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._jump_handler = self.get_clock().create_jump_callback(
