@@ -7,7 +7,7 @@ from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
 from rclpy.parameter import Parameter
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64
+from std_msgs.msg import Float64, Header
 
 from hex_control.nodes.force_controller import ForceControllerNode
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
@@ -32,7 +32,7 @@ class LockStepTablePlant:
         self.time_ns = 0
         self.nan_sent = False
         self.history = []  # (sim time s, command mm, force N) after each step of the current timeline
-        self.node = ros.node("table_plant")
+        self.node = ros.node("plant")  # the controller takes wrenches from the node named plant only
         self.wrenches = self.node.create_publisher(WrenchStamped, "/plant/wrench", 100)
         self.setpoints = self.node.create_publisher(Float64, "/force_controller/setpoint", 100)
         self.clock = self.node.create_publisher(Clock, "/clock", 100)
@@ -97,10 +97,10 @@ class LockStepTablePlant:
         return next((command, force) for t, command, force in self.history if t >= time_s)
 
 
-def start_loop(ros, plant, trigger="timer"):
+def start_loop(ros, plant, trigger="timer", *overrides):
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
         Parameter("use_sim_time", value=True), Parameter("trigger", value=trigger),
-        Parameter("kp_mm_per_n", value=0.0098), Parameter("ki_mm_per_n_s", value=0.48)]))  # ITAE-tuned
+        Parameter("kp_mm_per_n", value=0.0098), Parameter("ki_mm_per_n_s", value=0.48), *overrides]))  # ITAE
     for topic in ("/plant/wrench", "/force_controller/setpoint", "/clock"):
         ros.wait_for_match(plant.node, topic, subscribers=1)
     ros.wait_for_match(plant.node, "/plant/force_axis_command", publishers=1)
@@ -132,7 +132,9 @@ def test_a_saturated_command_warns_until_it_comes_off_the_limit(ros):
 
     plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.5)
     plant.table.surface_mm = 5.0  # beyond the controller's +2 mm
-    controller = start_loop(ros, plant)
+    # the work's return under the table at +2 mm is a 166 N spike: not an overload here
+    controller = start_loop(ros, plant, "timer", Parameter("overload_n", value=1e4),
+                            Parameter("overforce_ratio", value=100.0))
     plant.run_until(1.5)
     level, message = controller.diagnostics.summary()
     assert level == WARN and "saturated at +2.00 mm" in message and "measured 0.0 N" in message, message
@@ -182,19 +184,20 @@ def test_a_restarted_plant_is_followed_on_its_new_clock(ros, trigger):
 
 
 def test_a_stray_stamp_changes_nothing(ros):
-    """One wrench stamped 2^31 - 1 s (and one before the plant's time) amid a lock-step loop:
-    refused and counted, no jump, and the loop goes on answering."""
-    plant = LockStepTablePlant(ros, lambda t: 20.0)
-    controller = start_loop(ros, plant, "measurement")
+    """One wrench stamped 2^31 - 1 s, one before the plant's time and one 0.3 s ahead of it
+    (issue 37: inside the old 1 s window, it dropped the pass) amid a lock-step loop, from any
+    publisher (measurement_owner ''): refused and counted, no jump, and the loop goes on
+    answering."""
+    plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.0)  # still while the strays come
+    controller = start_loop(ros, plant, "measurement", Parameter("measurement_owner", value=""))
     plant.run_until(1.0)
     node = ros.node("stray")
     stray = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
     ros.wait_for_match(node, "/plant/wrench", subscribers=1)
-    for sec in (2**31 - 1, 0):
-        wrench = WrenchStamped()
-        wrench.header.stamp.sec = sec
-        stray.publish(wrench)
-    wait_until(lambda: controller.diagnostics.counters.get("rejected_stamp", 0) >= 2, 10.0, what="the strays")
+    for stamp in (Time(seconds=2**31 - 1), Time(), Time(nanoseconds=plant.time_ns + 300_000_000)):
+        stray.publish(WrenchStamped(header=Header(stamp=stamp.to_msg())))
+    wait_until(lambda: controller.diagnostics.counters.get("rejected_stamp", 0) >= 3, 10.0, what="the strays")
+    plant.resume()
     reached = plant.time_s
     plant.run_until(reached + 1.0)
     assert plant.at(reached + 1.0)[1] == pytest.approx(20.0, abs=1.0)
@@ -208,7 +211,7 @@ def test_negative_stamps_are_refused_not_a_crash(ros):
     from hex_control_msgs.msg import ForceTrajectory
 
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
-        Parameter("trigger", value="measurement")]))
+        Parameter("trigger", value="measurement"), Parameter("measurement_owner", value="")]))
     node = ros.node("negative_stamps")
     commands = ros.collect(ForceAxisCommand, "/plant/force_axis_command", 100)
     wrenches = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
@@ -236,16 +239,128 @@ def test_an_answer_lost_before_the_plant_matched_is_given_again(ros):
     (the same stamp), which the controller then ignored as already answered, for good. It
     answers a state sent again with the same command, stamped with the state it answers."""
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
-        Parameter("trigger", value="measurement")]))
+        Parameter("trigger", value="measurement"), Parameter("measurement_owner", value="")]))
     node = ros.node("late_plant")
     wrenches = node.create_publisher(WrenchStamped, "/plant/wrench", 10)
     ros.wait_for_match(node, "/plant/wrench", subscribers=1)
     state = WrenchStamped()
     state.header.stamp.sec = 1
     wrenches.publish(state)  # nobody listens for the answer yet
-    wait_until(lambda: controller.stamps.last_ns == 1_000_000_000, 5.0, what="the first state answered")
+    wait_until(lambda: controller.loop.stamps.last_ns == 1_000_000_000, 5.0, what="the first state answered")
     commands = ros.collect(ForceAxisCommand, "/plant/force_axis_command", 100, publishers=1)
     wait_until(lambda: controller.publisher.get_subscription_count() >= 1, 5.0, what="the command's match")
     wrenches.publish(state)  # the plant's re-send
     wait_until(lambda: commands, 5.0, what="the answer again")
     assert commands[-1].position_mm == -2.0 and commands[-1].header.stamp.sec == 1
+
+
+# -- issue 37: what the controller takes, from whom ------------------------------------------
+def _publisher_seen(ros, controller, name: str, msg_type, topic: str, qos):
+    """A publisher of node ``name`` on ``topic``, once the controller's graph names its node."""
+    publisher = ros.node(name).create_publisher(msg_type, topic, qos)
+    wait_until(lambda: any(info.node_name == name for info in controller.get_publishers_info_by_topic(topic)),
+               15.0, what=f"{name} on {topic} in the controller's graph")
+    return publisher
+
+
+def _trajectory(pass_index: int, force_n: float, length_s: float, start_s: float = 1.0, job_id: str = "job"):
+    from hex_control_msgs.msg import ForceTrajectory
+
+    msg = ForceTrajectory(job_id=job_id, pass_index=pass_index, time_from_start_s=[0.0, length_s],
+                          normal_force_n=[force_n, force_n])
+    msg.header.stamp = Time(nanoseconds=round(start_s * 1e9)).to_msg()
+    return msg
+
+
+def test_a_force_trajectory_is_taken_only_from_the_planner_for_the_commanded_pass(ros):
+    """Issue 37: one latched ForceTrajectory of 60 N for 200 s from another process was
+    tracked and gouged the part 0.77 mm. As the graph configures it, the controller takes a
+    trajectory only from the pass planner, and only for the pass the sequence planner
+    commanded last (one that comes before its command waits for it)."""
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    from hex_control.nodes.interfaces import LATCHED
+    from hex_control_msgs.msg import ForceTrajectory, PassCommand
+
+    controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
+        Parameter("require_pass_command", value=True), Parameter("trajectory_owner", value="pass_planner")]))
+    counters = controller.diagnostics.counters
+    status = ros.collect(DiagnosticStatus, "/force_controller/status", LATCHED)
+    rogue = _publisher_seen(ros, controller, "rogue", ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+    planner = _publisher_seen(ros, controller, "pass_planner", ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+    sequencer = _publisher_seen(ros, controller, "sequence_planner", PassCommand, "/grinding/pass_command", LATCHED)
+    rogue.publish(_trajectory(1, 60.0, 200.0))
+    wait_until(lambda: counters["foreign_trajectory"] >= 1, 10.0, what="the rogue's trajectory refused")
+    planner.publish(_trajectory(1, 20.0, 5.0))  # before its pass command
+    wait_until(lambda: counters["refused_trajectory"] >= 1, 10.0, what="the early trajectory held back")
+    assert controller.loop.trajectory is None
+    assert "no accepted pass command for it (latest: none)" in controller.diagnostics.summary()[1]
+    sequencer.publish(PassCommand(job_id="job", pass_index=1))
+    wait_until(lambda: controller.loop.trajectory is not None, 10.0, what="the planned trajectory taken")
+    assert controller.loop.trajectory.key == ("job", 1) and controller.loop.trajectory.forces_n.max() == 20.0
+    held = wait_until(lambda: status and status[-1], 10.0, what="the controller's status")
+    assert {kv.key: kv.value for kv in held.values} == {"job_id": "job", "pass_index": "1"}
+    planner.publish(_trajectory(1, 61.0, 5.0))  # above max_force_n (60 N): refused whole
+    wait_until(lambda: counters["refused_trajectory"] >= 2, 10.0, what="the 61 N trajectory refused")
+    assert controller.loop.trajectory.forces_n.max() == 20.0
+    assert "peak 61.0 N above max_force_n 60 N" in controller.diagnostics.summary()[1]
+
+
+def test_a_direct_setpoint_does_not_drop_a_held_trajectory(ros):
+    """Issue 37: one Float64 0.0 on ~/setpoint dropped the pass's trajectory (the pass cut
+    0.048 of 0.308 mm). It is refused while a trajectory is held, counted, and said."""
+    from hex_control.nodes.interfaces import LATCHED
+    from hex_control_msgs.msg import ForceTrajectory
+
+    plant = LockStepTablePlant(ros, lambda t: None, hold_at_s=0.0)
+    controller = start_loop(ros, plant, "measurement")
+    jog = ros.node("jog")
+    jog.create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED).publish(_trajectory(0, 20.0, 3.0,
+                                                                                                      start_s=0.5))
+    setpoints = jog.create_publisher(Float64, "/force_controller/setpoint", 10)
+    wait_until(lambda: controller.loop.trajectory is not None, 10.0, what="the trajectory")
+    plant.resume(hold_at_s=1.0)
+    plant.run_until(1.0)
+    ros.wait_for_match(jog, "/force_controller/setpoint", subscribers=1)
+    setpoints.publish(Float64(data=0.0))
+    wait_until(lambda: controller.diagnostics.counters["refused_setpoint"] >= 1, 10.0, what="the setpoint refused")
+    assert "setpoint 0 N refused: the force trajectory of job pass 0 is held" in controller.diagnostics.summary()[1]
+    plant.resume()
+    plant.run_until(2.0)
+    assert plant.at(2.0)[1] == pytest.approx(20.0, abs=1.0) and controller.loop.trajectory is not None
+
+
+def test_a_wrench_from_another_node_is_refused(ros):
+    """Issue 37: one wrench stamped +0.3 s from another process dropped the pass. Wrenches
+    are taken from the node named plant only (measurement_owner)."""
+    plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.0)
+    controller = start_loop(ros, plant, "measurement")
+    plant.run_until(1.0)
+    counters = controller.diagnostics.counters
+    foreign = counters["foreign_measurement"]  # the plant's first states, if sent before discovery named it
+    stray = _publisher_seen(ros, controller, "rogue", WrenchStamped, "/plant/wrench", 10)
+    stray.publish(WrenchStamped(header=Header(stamp=Time(nanoseconds=plant.time_ns + 300_000_000).to_msg())))
+    wait_until(lambda: counters["foreign_measurement"] > foreign, 10.0, what="the rogue's wrench refused")
+    plant.resume()
+    plant.run_until(2.0)
+    assert plant.at(2.0)[1] == pytest.approx(20.0, abs=1.0)
+    assert counters["clock_jumps"] == 0 and counters["rejected_stamp"] == 0
+
+
+def test_max_force_cannot_be_raised_live_beyond_the_cells_f_max(ros):
+    """Issue 37: max_force_n raised live to 10,000 N let the loop push the plant into its
+    150 N overload trip. A value above the cell's F_max (config/cell.yaml) is refused, with why."""
+    from rcl_interfaces.srv import SetParameters
+
+    controller = ros.add(ForceControllerNode(context=ros.context))
+    client = ros.node("operator").create_client(SetParameters, "/force_controller/set_parameters")
+
+    def set_max_force(value: float):
+        request = SetParameters.Request(parameters=[Parameter("max_force_n", value=value).to_parameter_msg()])
+        return ros.call(client, request).results[0]
+
+    refused = set_max_force(10_000.0)
+    assert not refused.successful and "the cell's F_max is 60 N" in refused.reason
+    assert controller.get_parameter("max_force_n").value == 60.0 and controller.loop.settings.max_force_n == 60.0
+    assert set_max_force(45.0).successful
+    assert controller.loop.settings.max_force_n == 45.0

@@ -21,7 +21,7 @@ def test_a_restarted_plant_is_followed_after_one_re_send():
     checks(guard, range(0, 50_001, 5))  # 50 s of a plant ...
     assert checks(guard, [0, 0, 5]) == [Stamp.REFUSED, Stamp.JUMPED, Stamp.NEXT]  # ... restarted: 0, re-sent
     assert guard.jump_ns == -50_000 * MS
-    assert checks(StampGuard(1000 * MS), [60, 65, 0, 5, 10]) == [Stamp.NEXT, Stamp.NEXT, Stamp.REFUSED,
+    assert checks(StampGuard(50 * MS), [600, 605, 0, 5, 10]) == [Stamp.NEXT, Stamp.NEXT, Stamp.REFUSED,
                                                                  Stamp.JUMPED, Stamp.NEXT]  # realtime: no re-send
 
 
@@ -40,3 +40,18 @@ def test_a_gap_beyond_the_step_is_taken_once_confirmed():
     assert guard.jump_ns == 2005 * MS
     with pytest.raises(ValueError):
         StampGuard(0)
+
+
+def test_one_stamp_ahead_within_the_window_leaves_the_streams_own_states_answered():
+    """Issue 37: one wrench stamped +0.3 s inside a 1 s window was taken as the next state;
+    the plant's own states, now behind it, were held, confirmed by the re-send and taken as a
+    jump back (the trajectory dropped). The plant's states after a stray ahead are late, and
+    answered; with the shipped 50 ms window the +0.3 s stray is refused outright."""
+    guard = StampGuard(1000 * MS)
+    checks(guard, [1000, 1005])
+    assert checks(guard, [1305, 1010, 1010, 1015]) == [Stamp.NEXT, Stamp.LATE, Stamp.REPEAT, Stamp.NEXT]
+    guard = StampGuard(50 * MS)
+    checks(guard, [1000, 1005])
+    assert checks(guard, [1305, 1010, 1015]) == [Stamp.REFUSED, Stamp.NEXT, Stamp.NEXT]
+    assert checks(guard, [1040, 1020, 1025]) == [Stamp.NEXT, Stamp.LATE, Stamp.NEXT]
+    assert checks(guard, [950]) == [Stamp.REFUSED]  # 75 ms back: a jump only once confirmed
