@@ -1,9 +1,12 @@
-"""In a full ROS 2 install the workspace builds with `colcon build --base-paths . msg_defs`
-and `ros2 run hex_control <node>` finds the executables in lib/hex_control."""
+"""In a full ROS 2 install the workspace builds with colcon and `ros2 run hex_control <node>`
+finds the executables in lib/hex_control; package.xml declares every package the code
+imports, so `rosdep install --from-paths src` installs them."""
 
+import ast
 import os
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 from geometry_msgs.msg import WrenchStamped
@@ -15,19 +18,56 @@ from ros_harness import NodeProcess
 
 ROOT = Path(__file__).resolve().parent.parent
 
+#: what package.xml must name for an imported module that is neither the standard library's
+#: nor ours: a rosdep key (rosdistro's rosdep/python.yaml; '-pip' keys install from PyPI), or
+#: "pip: <name>" in a comment where rosdep has no key. A ROS package's module is its key.
+IMPORT_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
+               "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "filterpy": "python3-filterpy-pip",
+               "control": "python-control-pip", "mcap_ros2": "mcap-ros2-support", "mcap": "pip: mcap"}
+
+
+def _imported_top_modules() -> set[str]:
+    modules = set()
+    for path in (ROOT / "hex_control").rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                modules |= {alias.name.split(".")[0] for alias in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                modules.add(node.module.split(".")[0])
+    return modules - set(sys.stdlib_module_names) - {"hex_control", "__future__"}
+
+
+def test_package_xml_declares_every_import():
+    text = (ROOT / "package.xml").read_text()
+    manifest = ET.parse(ROOT / "package.xml").getroot()
+    keys = {e.text for tag in ("depend", "exec_depend") for e in manifest.iter(tag)}
+    missing = []
+    for module in sorted(_imported_top_modules()):
+        key = IMPORT_KEYS.get(module, module)
+        if not (key in keys or key.startswith("pip: ") and key in text):
+            missing.append(f"{module} (as {key})")
+    assert not missing, f"package.xml does not declare: {missing}"
+    assert {"ament_index_python", "rclpy", "hex_control_msgs", "mcap-ros2-support"} <= keys
+
 
 def test_colcon_builds_both_packages(tmp_path, ros, ros_env):
+    """A workspace as the README sets it up: the repository under src/, and beside it the
+    link to its interface package (colcon's crawl does not descend into a package, so a
+    plain `colcon build` would not find msg_defs/ inside the repository's package root)."""
     venv = Path(sys.prefix)
     env = dict(os.environ, AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
+    workspace = tmp_path / "ws"
+    (workspace / "src").mkdir(parents=True)
+    (workspace / "src/hex_control").symlink_to(ROOT)
+    (workspace / "src/hex_control_msgs").symlink_to("hex_control/msg_defs")
     result = subprocess.run(
-        [str(venv / "bin/colcon"), "--log-base", str(tmp_path / "log"), "build",
-         "--base-paths", ".", "msg_defs",
-         "--build-base", str(tmp_path / "build"), "--install-base", str(tmp_path / "install"),
+        [str(venv / "bin/colcon"), "build",
          "--cmake-args", "-DBUILD_TESTING=OFF", f"-DPython3_EXECUTABLE={sys.executable}"],
-        cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
+        cwd=workspace, env=env, capture_output=True, text=True, timeout=900)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "2 packages finished" in result.stdout
-    install = tmp_path / "install"
+    install = workspace / "install"
+    assert (install / "setup.sh").exists() and (install / "hex_control/share/hex_control/package.sh").exists()
     executables = {p.name for p in (install / "hex_control/lib/hex_control").iterdir()}
     assert {"load_predictor", "synthetic_load", "hexctl"} <= executables
     assert (install / "hex_control/share/ament_index/resource_index/packages/hex_control").exists()
