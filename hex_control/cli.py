@@ -55,6 +55,28 @@ def _parser() -> argparse.ArgumentParser:
     predictor.add_argument("--rate", type=float, default=200.0, help="sample rate (Hz)")
     predictor.add_argument("--seed", type=int, default=7)
 
+    campaign = commands.add_parser(
+        "campaign", help="seeded jobs as independent cells in parallel (local processes or Ray), and their statistics",
+        epilog="the same seeds give the same statistics.json as hexctl demo --jobs N, whatever the workers or backend. "
+               "exit codes: 0 every job ran and ended as its policy intended, without burn; 1 not; 2 a bad option; "
+               "3 a job's graph failed (counted in campaign.json; the others' statistics are written)")
+    campaign.add_argument("--jobs", type=int, default=20, help="seeded jobs, seeds --seed .. --seed + N - 1 (20)")
+    campaign.add_argument("--seed", type=int, default=None, help="the first job's seed (default 0)")
+    campaign.add_argument("--output", default="output/campaign", help="report directory (job_<seed>/ inside)")
+    campaign.add_argument("--workers", type=int, default=None,
+                          help="local worker processes, each running one cell at a time (default: the CPU count)")
+    campaign.add_argument("--ray", nargs="?", const="", default=None, metavar="ADDRESS",
+                          help="run on Ray, one task per job: a cluster's address (ray://head:10001, auto), or none "
+                               "for a local Ray (with --workers CPUs)")
+    campaign.add_argument("--deadline", type=float, default=None, help="each job's deadline (s; default 100)")
+    campaign.add_argument("--bead-length", type=float, default=None, help="bead length (mm; default 300)")
+    campaign.add_argument("--bead-height", type=float, default=None, help="bead height (mm; default 1)")
+    campaign.add_argument("--dulling", type=float, default=None, help="K1 growth per pass (default 0)")
+    campaign.add_argument("--machine", choices=sorted(MACHINES), default=None, help="hexapod (default) or pru3")
+    campaign.add_argument("--no-record", action="store_true", help="do not record each job's messages")
+    campaign.add_argument("--job-timeout", type=float, default=1800.0, help="wall seconds a job may take (1800)")
+    campaign.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+
     stats = commands.add_parser("job-stats", help="statistics over report directories of hexctl demo")
     stats.add_argument("directories", nargs="+", help="report directories (a job's, or one with job_* inside)")
     stats.add_argument("--output", default="", help="also write the statistics here (JSON)")
@@ -308,6 +330,49 @@ def _job_stats(args) -> int:
     if args.output:
         Path(args.output).write_text(text + "\n")
     return 0
+
+
+def _campaign(args) -> int:
+    """``hexctl campaign``: N seeded cells on local worker processes or Ray, the statistics
+    of ``hexctl demo --jobs N`` over those that ran (hex_control/campaign/)."""
+    import json
+
+    from hex_control.campaign import campaign_record, gather, run_campaign, seeded_jobs, write_campaign
+    from hex_control.campaign.executors import ProcessExecutor, RayExecutor
+    from hex_control.grinding.job_report import job_statistics
+    from hex_control.nodes.campaign_cell import campaign_settings, grind_cell, job_line, tolerance_mm
+    from hex_control.nodes.grind_job import RUN_DEFAULTS, run_options
+
+    given = {name: getattr(args, name, None) for name in RUN_DEFAULTS if getattr(args, name, None) is not None}
+    options = run_options(given)
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, not {args.workers}")
+    executor = (RayExecutor(args.ray or None, num_cpus=args.workers) if args.ray is not None
+                else ProcessExecutor(args.workers))
+    settings = campaign_settings(options, MACHINES[options["machine"]], record=not args.no_record,
+                                 timeout_s=args.job_timeout)
+    jobs = seeded_jobs(options["seed"], args.jobs, args.output, settings)
+    where = f"Ray at {args.ray}" if args.ray else "a local Ray" if args.ray is not None else \
+        f"{executor.workers} local worker processes"
+    print(f"campaign: {len(jobs)} jobs, seeds {jobs[0].seed}..{jobs[-1].seed}, on {where}; each cell in a ROS domain "
+          "of its own", flush=True)
+    start = time.monotonic()
+    outcomes = run_campaign(jobs, grind_cell, executor, progress=not args.no_progress,
+                            on_outcome=lambda o: job_line(o.seed, o.summary) if o.ok else f"job {o.seed}: FAILED: "
+                                                                                         f"{o.error}")
+    wall = time.monotonic() - start
+    stats = gather(outcomes, lambda summaries: job_statistics(summaries, tolerance_mm()))
+    record = campaign_record(outcomes, executor.name, executor.workers, wall)
+    write_campaign(args.output, outcomes, stats, record)
+    if stats is not None:
+        print(json.dumps(stats, indent=2))
+    ran = [o for o in outcomes if o.ok]
+    print(f"campaign: {len(ran)} of {len(outcomes)} jobs ran, {record['failed']} failed"
+          f"{' (seeds ' + ', '.join(str(f['seed']) for f in record['failures']) + ')' if record['failed'] else ''}; "
+          f"{wall:.0f} s wall for {record['job_wall_s_sum']:.0f} s of job wall time; report: {args.output}")
+    if record["failed"]:
+        return 3
+    return 0 if all(o.summary["ended_as_intended"] and not o.summary["burn"] for o in ran) else 1
 
 
 def _workspace(args) -> int:
@@ -615,6 +680,8 @@ def main(argv=None) -> int:
             return run_demo(args.output, args.samples, args.rate, args.seed)
         if args.command == "job-stats":
             return _job_stats(args)
+        if args.command == "campaign":
+            return _campaign(args)
         if args.command == "workspace":
             return _workspace(args)
         if args.command == "sdp":
