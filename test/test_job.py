@@ -92,3 +92,35 @@ def test_result_for_the_wrong_pass_is_refused(tmp_path):
         job.apply_result(decision["pass_index"] + 1, 0.1, 6.0)
     with pytest.raises(ValueError, match="finite"):
         job.apply_result(decision["pass_index"], float("nan"), 6.0)
+
+
+def test_passes_not_run_as_planned_are_said_in_the_end_and_survive_a_restart(tmp_path):
+    """Issue 37 item 2: an aborted or faulted pass is re-decided from what the scanner
+    measured; the job's end message and log record name each, with its reason."""
+    path = tmp_path / "j6.jsonl"
+    job = GrindingJob(JobGoal("j6", 1.9, 12.5, 300.0, 120.0), POLICY, Charges(), path)
+    decision = job.decide()
+    job.apply_result(decision["pass_index"], 0.05, decision["duration_s"], status="faulted", reason="cut short")
+    decision = job.decide()
+    job.apply_result(decision["pass_index"], 0.0, 1.0, completed=False)  # the old call: aborted, no reason
+    with pytest.raises(ValueError, match="unknown pass status"):
+        job.apply_result(job.decide()["pass_index"], 0.1, 1.0, status="fine")
+    resumed = GrindingJob.resume(path, POLICY, Charges())
+    assert resumed.state.not_as_planned == [(0, "faulted", "cut short"), (1, "aborted", "")]
+    run(resumed, np.random.default_rng(3))
+    end = resumed.state.end
+    assert end["reason"] in (DONE, "quit") and end["message"].startswith("policy ends the job; 2 of ")
+    assert "passes not as planned: pass 0 faulted (cut short), pass 1 aborted" in end["message"]
+    assert end["not_as_planned"] == [[0, "faulted", "cut short"], [1, "aborted", ""]]
+
+
+def test_a_log_written_before_the_status_field_reads_back(tmp_path):
+    path = tmp_path / "j7.jsonl"
+    job = GrindingJob(JobGoal("j7", 1.0, 12.5, 300.0, 40.0), POLICY, Charges(), path)
+    decision = job.decide()
+    job.apply_result(decision["pass_index"], 0.2, decision["duration_s"], completed=False)
+    lines = [json.loads(line) for line in path.read_text().splitlines()]
+    for record in lines:
+        record.pop("status", None), record.pop("reason", None)
+    path.write_text("".join(json.dumps(r) + "\n" for r in lines))
+    assert GrindingJob.resume(path, POLICY, Charges()).state.not_as_planned == [(0, "aborted", "")]

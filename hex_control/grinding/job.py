@@ -52,6 +52,8 @@ class JobState:
     pending: dict | None = None  # the decided pass awaiting its result
     end: dict | None = None
     history: list = field(default_factory=list)
+    #: passes that did not run as planned: (pass index, "aborted" | "faulted", the reason)
+    not_as_planned: list = field(default_factory=list)
 
 
 class GrindingJob:
@@ -92,6 +94,9 @@ class GrindingJob:
             self.state.in_path_charge += record["in_path_charge"]
             self.state.pending = None
             self.state.history.append(record)
+            status = record.get("status", "completed" if record.get("completed", True) else "aborted")
+            if status != "completed":
+                self.state.not_as_planned.append((record["pass_index"], status, record.get("reason", "")))
         elif kind == "end":
             self.state.end = record
 
@@ -137,9 +142,23 @@ class GrindingJob:
             self.end(DONE if within else QUIT, "policy ends the job")
             return None
 
-    def apply_result(self, pass_index: int, cut_mm: float, duration_s: float, completed: bool = True) -> None:
-        """Measured outcome of the pending pass (also of an aborted one: the removal measured
-        by the scanner is what happened)."""
+    def not_as_planned_text(self) -> str:
+        """'' when every pass ran as planned; else '; 2 of 5 passes not as planned: pass 1
+        faulted (cut short), ...' -- a job's end must say so (issue 37 item 2)."""
+        bad = self.state.not_as_planned
+        if not bad:
+            return ""
+        each = ", ".join(f"pass {k} {status}" + (f" ({reason})" if reason else "") for k, status, reason in bad)
+        return f"; {len(bad)} of {self.state.passes} passes not as planned: {each}"
+
+    def apply_result(self, pass_index: int, cut_mm: float, duration_s: float, completed: bool = True,
+                     status: str | None = None, reason: str = "") -> None:
+        """Measured outcome of the pending pass (also of an aborted or faulted one: the
+        removal measured by the scanner is what happened). ``status``: "completed",
+        "aborted" or "faulted" (default from ``completed``); ``reason``: why not completed."""
+        status = status or ("completed" if completed else "aborted")
+        if status not in ("completed", "aborted", "faulted"):
+            raise ValueError(f"unknown pass status {status!r}")
         pending = self.state.pending
         if pending is None or pass_index != pending["pass_index"]:
             raise ValueError(f"no pending pass {pass_index}")
@@ -149,7 +168,8 @@ class GrindingJob:
         x, t = self.state.material_mm - cut_mm, self.state.time_remaining_s - duration_s
         last = self.policy.lookup(t, x)["action"] != "grind"
         self._record({"type": "result", "pass_index": pass_index, "cut_mm": cut_mm, "duration_s": duration_s,
-                      "completed": completed, "material_mm": x, "time_remaining_s": t,
+                      "completed": status == "completed", "status": status, "reason": reason,
+                      "material_mm": x, "time_remaining_s": t,
                       "in_path_charge": self.charges.in_path.per_pass + (finish if last else 0.0)})
 
     def update_model(self, specific_energy_j_mm3: float, solved_with_j_mm3: float, force_max_n: float,
@@ -162,10 +182,13 @@ class GrindingJob:
                       "solved_force_max_n": solved_force_max_n})
 
     def end(self, reason: str, message: str = "") -> None:
+        """End the job; the message says which passes did not run as planned, if any."""
         if not self.finished:
+            message += self.not_as_planned_text()
             self._record({"type": "end", "reason": reason, "message": message, "charge": self.final_charge(),
                           "material_mm": self.state.material_mm, "time_remaining_s": self.state.time_remaining_s,
-                          "passes": self.state.passes})
+                          "passes": self.state.passes,
+                          "not_as_planned": [list(entry) for entry in self.state.not_as_planned]})
 
 
 def read_log(log_path: Path) -> list[dict]:
