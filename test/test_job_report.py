@@ -147,3 +147,27 @@ def test_report_keeps_every_scan_as_a_profile_the_pass_planner_reads(tmp_path):
     back = Contour.from_csv(tmp_path / "profiles" / "after_pass_1.csv")
     assert np.allclose(back.z_mm, ground.z_mm) and np.allclose(back.parent_mm, ground.parent_mm)
     assert (tmp_path / "contours.png").stat().st_size > 10_000
+
+
+def test_a_job_with_faulted_passes_is_never_a_clean_end(tmp_path):
+    """Issue 37 item 2: the plant's FAULTED (or ABORTED) passes are listed in job.json with
+    their reason, and such a job is not 'ended_clean' even when its policy ended it DONE."""
+    base = {"specific_energy_j_mm3": 9.0, "stamp_s": 10.0, "burn": False, "stall": False}
+    record = JobRecord(results={0: {**base, "status": "faulted", "reason": "cut short: 0.05 of 0.31 mm"},
+                                1: {**base, "status": "completed", "reason": ""},
+                                2: {**base, "status": "aborted", "reason": "watchdog"}},
+                       events=[("result", 0), ("result", 1), ("result", 2)],
+                       outcome={"reason": "done", "total_charge": 0.0,
+                                "message": "policy ends the job; 2 of 3 passes not as planned: ..."})
+    summary = json.loads(json.dumps(write_report(record, tmp_path)))
+    assert summary["ended_as_intended"] and not summary["ended_clean"]
+    assert summary["passes_not_as_planned"] == [
+        {"pass": 0, "status": "faulted", "reason": "cut short: 0.05 of 0.31 mm"},
+        {"pass": 2, "status": "aborted", "reason": "watchdog"}]
+    assert json.loads((tmp_path / "job.json").read_text())["passes_not_as_planned"][0]["status"] == "faulted"
+    clean = JobRecord(results={0: {**base, "status": "completed"}}, events=[("result", 0)],
+                      outcome={"reason": "done", "total_charge": 0.0}).summary()
+    assert clean["ended_clean"] and clean["passes_not_as_planned"] == []
+    stats = job_statistics([{**_summary("done", 0.01, 0.0), "passes_not_as_planned": summary["passes_not_as_planned"]},
+                            _summary("done", 0.0, 0.0)], 0.025)
+    assert stats["jobs_with_passes_not_as_planned"] == 1 and stats["passes_faulted"] == 1

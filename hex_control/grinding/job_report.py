@@ -58,6 +58,13 @@ class JobRecord:
         return list(range(self.first_pass, self.first_pass + count))
 
     @property
+    def not_as_planned(self) -> list[dict]:
+        """The passes the plant reported ABORTED or FAULTED (ran, but not as planned), with
+        the reason: the state was re-decided from their scans (issue 37 item 2)."""
+        return [{"pass": i, "status": r["status"], "reason": r.get("reason", "")}
+                for i, r in sorted(self.results.items()) if r.get("status") in ("aborted", "faulted")]
+
+    @property
     def part_quality(self) -> dict | None:
         """The part-quality figures of the last scan (PassResult.part_quality), None if none."""
         scanned = [r["part_quality"] for _, r in sorted(self.results.items())
@@ -71,11 +78,14 @@ class JobRecord:
         start_penalty = self.commands[0]["expected_penalty"] if 0 in self.commands else \
             self.goal.get("expected_penalty_at_start", math.nan)  # a resumed job's, from its log
         results_in_order = [i for kind, i in self.events if kind == "result"]
-        quality = self.part_quality
+        quality, not_as_planned = self.part_quality, self.not_as_planned
         return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
                 "part_quality": quality,
                 "part_within_tolerance": quality is not None and quality["max_deviation_mm"] <= TOLERANCE_MM,
-                "ended_as_intended": self.intended, "passes": passes,
+                "ended_as_intended": self.intended,
+                # a job whose passes were not all run as planned is never a clean end, whatever its reason
+                "passes_not_as_planned": not_as_planned, "ended_clean": self.intended and not not_as_planned,
+                "passes": passes,
                 # each pass once, in order (a restarted planner must not repeat or skip one)
                 "passes_in_order": results_in_order == self._expected_passes(len(results_in_order)),
                 "planner_restarts": sum(kind == "planner_restart" for kind, _ in self.events),
@@ -245,6 +255,9 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             **_part_statistics([s.get("part_quality") for s in summaries]),
             **_plan_error([p for s in summaries for p in s.get("passes", [])]),
             "jobs_with_passes_out_of_order": int(sum(not s.get("passes_in_order", True) for s in summaries)),
+            "jobs_with_passes_not_as_planned": int(sum(bool(s.get("passes_not_as_planned")) for s in summaries)),
+            "passes_faulted": int(sum(p["status"] == "faulted" for s in summaries
+                                      for p in s.get("passes_not_as_planned", []))),
             "planner_restarts": int(sum(s.get("planner_restarts", 0) for s in summaries))}
 
 
