@@ -1,4 +1,5 @@
-"""Node input_shaper over real topics: staircase, run-time change without a jump, NaN."""
+"""Node input_shaper over real topics: staircase, run-time change without a jump, NaN, the
+path's owner (the behaviour itself: test_motion_shaper.py)."""
 
 import math
 
@@ -66,20 +67,21 @@ def test_switch_to_an_optimized_shaper(shaper_node):
     send(publisher, [0.0, 1.0])
     wait_until(lambda: len(shaped) >= 2, 5.0, what="samples")
     assert node.diagnostics.values["shaper"].startswith("optimized (criterion")
-    assert len(node._shaper.amplitudes) == 5 and node._shaper.delay_s <= 1.5 / 8.5  # the optimized design
+    assert len(node.core.shaper.amplitudes) == 5 and node.core.shaper.delay_s <= 1.5 / 8.5  # the optimized design
 
 
 def test_a_whole_tool_path_is_shaped_as_the_stream_would_be(ros, shaper_node):
     """A pass's path arrives whole (latched) and leaves whole: the ZVD staircase on every
     channel, its identity kept, longer by the shaper's delay so it ends at rest, and
     stamped the shaper's lag (half the ZVD: 0.05 s) early, so that it is on time where it
-    moves at constant velocity."""
+    moves at constant velocity. Only the pass planner's paths are shaped."""
     from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
     from hex_control_msgs.msg import ToolPath
 
-    shaper_node()
-    node = ros.node("path_source")
+    shaper, _, _ = shaper_node()
+    node = ros.node("pass_planner")
     publisher = node.create_publisher(ToolPath, "/motion/tool_path_raw", LATCHED)
+    rogue = ros.node("path_source").create_publisher(ToolPath, "/motion/tool_path_raw", LATCHED)
     shaped = ros.collect(ToolPath, "/motion/tool_path", LATCHED, publishers=1)
     step = [0.0] * 5 + [1.0] * 20
     path = ToolPath(job_id="job-s", pass_index=3, sample_period_s=0.01)
@@ -87,6 +89,8 @@ def test_a_whole_tool_path_is_shaped_as_the_stream_would_be(ros, shaper_node):
     for k, name in enumerate(PATH_FIELDS):
         setattr(path, name, [(k + 1) * v for v in step])
     ros.wait_for_match(node, "/motion/tool_path_raw", subscribers=1)
+    wait_until(lambda: rogue.get_subscription_count() >= 1, 10.0, what="the rogue matched")
+    rogue.publish(path)  # well formed, but not the pass planner's: refused, counted
     bad = ToolPath(job_id="job-s", pass_index=4, sample_period_s=0.01, x_mm=[0.0, math.nan])
     publisher.publish(bad)  # malformed (columns of unequal length, a NaN): refused, nothing out
     publisher.publish(path)  # in order after it: when this one is out, the bad one was handled
@@ -97,4 +101,5 @@ def test_a_whole_tool_path_is_shaped_as_the_stream_would_be(ros, shaper_node):
     x = np.array(out.x_mm)
     assert x[5] == pytest.approx(0.25) and x[10] == pytest.approx(0.75) and x[15:] == pytest.approx(1.0)
     np.testing.assert_allclose(out.yaw_rad, 6 * x)
+    wait_until(lambda: shaper.diagnostics.counters["foreign_tool_path_raw"] == 1, 5.0, what="the rogue counted")
     assert len(shaped) == 1
