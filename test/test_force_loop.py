@@ -450,3 +450,23 @@ def test_a_jog_re_arms_after_an_overload_only_once_its_setpoints_paused():
     for k in range(2, 200):  # 1 s without setpoints
         assert loop.on_measurement(0.0, 1 * S + k * PERIOD_NS).position_mm == -2.0
     assert loop.on_setpoint(20.0).accepted and loop.backed_off is None
+
+
+def test_the_force_controller_node_reads_the_cell_not_the_plant():
+    """Issue 38: the node imported plant.force_table for its K_x and contact defaults. It
+    takes F_max and K_x = K_theta / R^2 from config/cell.yaml, the table's contact and
+    overload trip from config/plant.yaml (one source each), and imports no plant module."""
+    import ast
+    from pathlib import Path
+
+    from hex_control.grinding.config import cell_value
+    from hex_control.nodes import force_controller
+
+    tree = ast.parse(Path(force_controller.__file__).read_text())
+    modules = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]
+    modules += [a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names]
+    assert not [m for m in modules if m.startswith("hex_control.plant")]
+    defaults = {name: spec.default for name, spec in force_controller.PARAMETERS.items()}
+    assert defaults["max_force_n"] == cell_value("process.force_max_n") == 60.0
+    assert defaults["stiffness_n_per_mm"] == pytest.approx(ForceTableParameters().stiffness_n_mm)
+    assert (defaults["contact_mm"], defaults["overload_n"]) == (0.0, 150.0)
