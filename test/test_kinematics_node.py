@@ -315,3 +315,36 @@ def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ro
     assert busy, "no tool path converted while the IK service was at work"
     wait_until(lambda: int(diagnostics_value(list(diagnostics), "/kin/kinematics", "rejected_requests") or 0) >= 1,
                5.0, what="the refusal counted")
+
+
+def test_the_pass_planners_path_reaches_the_plant_through_the_shaper_and_only_its(ros, spawn):
+    """The default owners are the graph's names in the node's own namespace: the pass
+    planner of /chain -> its input shaper -> its kinematics node -> a strut trajectory; a
+    node of the same name in another namespace is not the owner."""
+    from trajectory_msgs.msg import JointTrajectory
+
+    from hex_control.shaping.filter import shape_whole
+    from hex_control.shaping.shapers import design
+
+    spawn(["hex-input-shaper", "--ros-args", "-r", "__ns:=/chain"])
+    spawn(["hex-kinematics", "--ros-args", "-r", "__ns:=/chain"])
+    planner = owner(ros, "pass_planner", "/chain").create_publisher(ToolPath, "/chain/motion/tool_path_raw", LATCHED)
+    stranger = owner(ros, "pass_planner", "/elsewhere").create_publisher(ToolPath, "/chain/motion/tool_path_raw",
+                                                                         LATCHED)
+    trajectories = ros.collect(JointTrajectory, "/chain/plant/strut_trajectory", LATCHED)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", 100)
+    wait_until(lambda: planner.get_subscription_count() >= 1 and stranger.get_subscription_count() >= 1, 30.0,
+               what="the shaper")
+    ros.wait_for_match(ros.node("chain_probe"), "/chain/motion/tool_path", publishers=1, subscribers=1)
+    stranger.publish(tool_path(PATH[:100], 5))
+    planner.publish(tool_path(PATH, 6))
+    trajectory = wait_until(lambda: trajectories[-1] if trajectories else None, 20.0, what="a strut trajectory")
+    shaped, lag_s = shape_whole(design("zvd", 5.0, 0.02), 0.005, PATH, True)  # the shaper's defaults
+    assert len(trajectory.points) == len(shaped) and len(shaped) > len(PATH)
+    np.testing.assert_allclose([p.positions for p in trajectory.points], strut_lengths(NIST, shaped) / 1000.0,
+                               atol=1e-12)
+    start_ns = round((7.5 - lag_s) * 1e9)
+    assert (trajectory.header.stamp.sec, trajectory.header.stamp.nanosec) == divmod(start_ns, 1_000_000_000)
+    wait_until(lambda: diagnostics_value(list(diagnostics), "/chain/input_shaper", "foreign_tool_path_raw") == "1",
+               10.0, what="the stranger's path refused by the shaper")
+    assert len(trajectories) == 1

@@ -25,6 +25,7 @@ import threading
 
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
@@ -40,6 +41,9 @@ from hex_control.nodes.parameters import declare_parameters
 from hex_control_msgs.msg import KinematicsErrorCode, ToolPath
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
 
+#: latched paths in, 10 deep: another publisher's burst must not push the owner's path out
+#: of a depth-1 reader queue before it is taken (the burst is refused, the pass left pathless)
+PATHS_IN = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 Code = KinematicsErrorCode
 DEFAULTS = KinematicsSettings()
 OWNER = "(a node name, relative ones resolved in this node's namespace; '' = the first publisher heard)"
@@ -81,7 +85,7 @@ class KinematicsNode(Node):
         info_subscription(self, PoseStamped, "motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint",
                           owner_node=self.settings.setpoint_owner)
         self._trajectory = self.create_publisher(JointTrajectory, "plant/strut_trajectory", LATCHED)
-        info_subscription(self, ToolPath, "motion/tool_path", self._on_path, LATCHED, self.diagnostics, "tool_path",
+        info_subscription(self, ToolPath, "motion/tool_path", self._on_path, PATHS_IN, self.diagnostics, "tool_path",
                           owner_node=self.settings.tool_path_owner)
 
     def companions(self) -> list[Companion]:
