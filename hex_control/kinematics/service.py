@@ -26,11 +26,12 @@ from hex_control.kinematics.rotation import rpy_from_quaternion
 from hex_control.kinematics.stewart import CONSTRAINT_SETS, ForwardKinematicsError
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 
-#: poses per IK / TestPose request. Measured on this 2-core machine (kinematics node,
-#: NIST hexapod, request and answer through rclpy): about 60,000 poses/s end to end,
-#: idle; 25,000 poses cost 0.4 s idle and 0.8 s beside two CPU burners (see the report of
-#: issue 37 item 6), inside the 1 s a request may cost, and above the 20,001 poses that
-#: the pass planner's TestPose of its longest path (200,000 samples, one in ten) needs.
+#: poses per IK / TestPose request. Measured on this 2-core machine near idle (kinematics
+#: node, NIST hexapod, request and answer through rclpy): 40,000-50,000 poses/s end to end
+#: (the vectorized IK alone: 300,000-500,000 poses/s; the rest is message conversion), so
+#: 25,000 poses cost 0.5-0.65 s a round trip, inside the 1 s a request may cost, and above
+#: the 20,001 poses of the pass planner's TestPose of its longest path (200,000 samples,
+#: one in ten and the last).
 MAX_POSES = 25_000
 MAX_SECTORS = 50_000
 MAX_SLICES = 100  # slice heights per workspace request: about 30 ms each here

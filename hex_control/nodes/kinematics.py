@@ -52,8 +52,8 @@ PARAMETERS = {
     "quaternion_tolerance": Spec(DEFAULTS.quaternion_tolerance, "|1 - |q|| above which a setpoint orientation "
                                  "is malformed", 1e-9, 0.5),
     "max_poses": Spec(DEFAULTS.max_poses, "poses per IK / TestPose request; more are refused before conversion. "
-                      "Measured here (NIST hexapod, through rclpy): about 60,000 poses/s idle, 25,000 poses in "
-                      "0.4 s idle and 0.8 s beside two CPU burners: a request costs under 1 s", 1, 1_000_000),
+                      "Measured on this 2-core machine near idle (NIST hexapod, request and answer through rclpy): "
+                      "40,000-50,000 poses/s, 25,000 poses 0.5-0.65 s a round trip: under 1 s", 1, 1_000_000),
     "setpoint_owner": Spec(DEFAULTS.setpoint_owner, f"whose motion/setpoint poses are relayed {OWNER}"),
     "tool_path_owner": Spec(DEFAULTS.tool_path_owner, f"whose motion/tool_path is converted {OWNER}"),
 }
