@@ -1,0 +1,124 @@
+"""The load predictor node's behaviour without ROS (issue 38): hex_control.estimation.load_predictor.
+The node tests (test_load_predictor_node.py) check the same over ROS; these in milliseconds."""
+
+import math
+from concurrent.futures import Future
+
+import numpy as np
+import pytest
+
+from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
+from hex_control.estimation.drift import DriftingLoadPredictor
+from hex_control.estimation.load_predictor import LoadPredictorCore, LoadPredictorSettings
+
+MODEL = GaussMarkovModel(0.95, 0.8, 1.5)
+SETTINGS = LoadPredictorSettings(a=0.95, process_variance=0.8, measurement_variance=1.5)
+
+
+def test_it_predicts_exactly_like_the_library_and_counts_what_it_refuses():
+    core = LoadPredictorCore(LoadPredictorSettings(**{**SETTINGS.__dict__, "mean": 10.0, "valid_max": 1e6}))
+    reference, counts, steps = OneStepPredictor(MODEL, mean=10.0), {}, []
+    for value in (11.0, math.nan, 12.5, math.inf, 9.0, 1e12, -math.inf, 10.5, "x"):
+        out = core.measure(value)
+        for name, n in out.counts.items():
+            counts[name] = counts.get(name, 0) + n
+        if out.step is None:
+            assert out.fault and out.log[0][0] == "warning"  # a refusal says why
+        else:
+            steps.append((value, out.step))
+    assert counts == {"samples": 4, "rejected_nonfinite": 3, "rejected_out_of_range": 1, "rejected_malformed": 1}
+    for value, step in steps:
+        expected = reference.step(value)
+        assert step.prediction == pytest.approx(expected.prediction, abs=1e-12)
+        assert step.gain == pytest.approx(expected.gain, rel=1e-12)
+    assert core.predictor.sample_count == 4
+
+
+def test_a_repeated_stamp_is_counted_not_stepped_and_a_stamp_back_in_time_resets():
+    core, counts = LoadPredictorCore(SETTINGS), []
+    for sec, force in ((100, 1.0), (101, 2.0), (101, 2.0), (50, 3.0), (51, 4.0)):
+        out = core.measure(force, sec * 1_000_000_000)
+        counts.append((out.counts, out.step and core.predictor.sample_count))
+    assert [c for c, _ in counts] == [{"samples": 1}, {"samples": 1}, {"repeated_measurements": 1},
+                                     {"resets": 1, "samples": 1}, {"samples": 1}]
+    assert [n for _, n in counts] == [1, 2, None, 1, 2]
+    restarted = OneStepPredictor(MODEL)
+    restarted.step(3.0)
+    assert core.predictor.prediction == pytest.approx(restarted.step(4.0).prediction, abs=1e-12)
+    assert core.reset("clock jumped back").counts == {"resets": 1} and core.last_stamp_ns is None
+
+
+def test_a_drifting_load_is_predicted_and_flagged_like_the_library():
+    settings = LoadPredictorSettings(a=0.98, process_variance=0.5, measurement_variance=2.25, mean=10.0,
+                                     drift_rate_variance=0.5, drift_switch_probability=0.05,
+                                     drift_initial_rate_variance=4.0)
+    core = LoadPredictorCore(settings, "specific_energy_j_mm3")
+    reference = DriftingLoadPredictor(GaussMarkovModel(0.98, 0.5, 2.25), 10.0, 0.5, 0.05, 4.0)
+    detected = 0
+    for value in (10.0 * 1.25 ** k for k in range(6)):
+        out, expected = core.measure(value), reference.step(value)
+        assert out.step.prediction == pytest.approx(expected.prediction, abs=1e-12)
+        assert out.values["drift_probability"] == f"{expected.drift_probability:.3f}"
+        detected += out.counts.get("drift_detected", 0)
+        if out.counts.get("drift_detected"):
+            assert out.log == [("info", out.log[0][1])] and "specific_energy_j_mm3 drifts" in out.log[0][1]
+    assert detected == 1 and core.drifting
+
+
+def test_a_drift_model_cannot_be_identified_online():
+    with pytest.raises(ValueError, match="identify_window"):
+        LoadPredictorCore(LoadPredictorSettings(drift_rate_variance=0.5, identify_window=100))
+
+
+def test_an_online_identification_is_adopted_without_losing_count():
+    """Scheduled once the window holds 50 samples, adopted at the next sample (the node's
+    worker thread; here at once): the model identified on the window replaces the rough one,
+    warm-started on the window, and sample_count goes on."""
+    rng = np.random.default_rng(3)
+    series = [float(v) for v in 40.0 + np.cumsum(rng.normal(0, 0.3, 60)) + rng.normal(0, 1.0, 60)]
+    core = LoadPredictorCore(LoadPredictorSettings(identify_window=60, identify_every=100))
+    adopted = [k for k, value in enumerate(series) if core.measure(value).counts.get("identifications")]
+    assert adopted == [50]  # submitted after the 50th sample, taken up at the next
+    expected = identify(series[:50])
+    assert core.predictor.model == expected.model and core.predictor.mean == expected.mean
+    assert core.predictor.sample_count == len(series)
+    reference = OneStepPredictor(expected.model, expected.mean)
+    reference.warm_start(series[:50])
+    for value in series[50:]:
+        reference.step(value)
+    assert core.predictor.prediction == pytest.approx(reference.prediction, abs=1e-12)
+
+
+def test_a_failed_identification_is_counted_and_filtering_goes_on():
+    def failing(function, *args):
+        future = Future()
+        future.set_exception(ValueError("no fit"))
+        return future
+
+    core = LoadPredictorCore(LoadPredictorSettings(identify_window=60, identify_every=10), submit=failing)
+    outs = [core.measure(float(v)) for v in range(60)]
+    assert sum(o.counts.get("identification_failures", 0) for o in outs) >= 1
+    assert any("identification failed: no fit" in text for o in outs for _, text in o.log)
+    assert core.predictor.model.a == 0.9 and core.predictor.sample_count == 60
+
+
+def test_a_retuned_model_continues_from_the_estimate_and_a_bad_one_is_refused():
+    core = LoadPredictorCore(SETTINGS)
+    for value in (1.0, 2.0, 3.0):
+        core.measure(value)
+    before = core.predictor.prediction - core.predictor.mean
+    values = {"a": 0.5, "process_variance": 2.0, "measurement_variance": 1.5, "initial_variance": -1.0, "mean": 0.0}
+    assert core.retune(values)["model_w"] == "2"
+    assert core.predictor.prediction - core.predictor.mean == before and core.predictor.sample_count == 3
+    with pytest.raises(ValueError, match="finite"):
+        core.settings.model({**values, "mean": math.nan})
+
+
+def test_the_node_parameters_default_to_the_settings():
+    """One source: the node's PARAMETERS take their defaults from LoadPredictorSettings."""
+    from dataclasses import fields
+
+    from hex_control.nodes.load_predictor import PARAMETERS
+
+    for f in fields(LoadPredictorSettings):
+        assert PARAMETERS[f.name].default == f.default, f.name
