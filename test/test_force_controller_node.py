@@ -1,6 +1,7 @@
 """Node force_controller over real topics against a lock-step force-table stand-in on sim time."""
 
 import math
+import time
 
 import pytest
 from geometry_msgs.msg import Vector3, Wrench, WrenchStamped
@@ -23,7 +24,9 @@ class LockStepTablePlant:
 
     PERIOD_NS = 5_000_000  # whole nanoseconds: a float stamp 1 ns short of a period fires no timer
 
-    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf, hold_at_s=math.inf):
+    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf, hold_at_s=math.inf,
+                 limits=None):
+        self.limits = limits  # the plant's own travel and overload trip (ForceAxisLimits), if given
         self.table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=0.0), step_s=0.001)
         self.table.reset(-2.0)
         self.setpoint_at, self.silent_from_s, self.restart_at_s = setpoint_at, silent_from_s, restart_at_s
@@ -40,23 +43,34 @@ class LockStepTablePlant:
         # as the real plant does: a state unanswered for 0.5 s of wall time is sent again (the
         # first may go out before the controller has matched; a restarted clock is confirmed so),
         # or, with ``advance_unanswered``, the plant steps on with the last command (a timer on a
-        # sim clock that went back waits for the clock to pass its next period)
+        # sim clock that went back waits for the clock to pass its next period); and it steps
+        # only on the answer to the state it waits on (stamped so): an answer to a re-sent state
+        # answered already would step it twice, and two states in flight delay the loop a period
         self.answered, self.advance_unanswered, self.last_command = False, False, None
-        self.node.create_timer(0.5, self._unanswered)
+        self.waiting_on, self.sent_s, self.stale_commands = None, 0.0, 0
+        self.node.create_timer(0.1, self._unanswered)
 
     def _unanswered(self) -> None:
-        if not self.answered:
+        if not self.answered and time.monotonic() - self.sent_s >= 0.5:
             if self.advance_unanswered and self.last_command is not None:
-                self.on_command(self.last_command)
+                self.answered = True
+                self._advance(self.last_command.position_mm)
             else:
                 self.publish()
 
     def on_command(self, msg: ForceAxisCommand) -> None:
+        if self.answered or (msg.header.stamp != self.waiting_on and not self.advance_unanswered):
+            self.stale_commands += 1
+            return
         self.answered, self.last_command = True, msg
+        self._advance(msg.position_mm)
+
+    def _advance(self, position_mm: float) -> None:
         for _ in range(5):
-            self.table.step(msg.position_mm)
+            self.table.step(position_mm if self.limits is None
+                            else self.limits.command_mm(position_mm, self.table.force_n))
         self.time_ns += self.PERIOD_NS
-        self.history.append((self.time_s, msg.position_mm, self.table.force_n))
+        self.history.append((self.time_s, position_mm, self.table.force_n))
         if self.time_s >= self.restart_at_s:  # the plant restarts: a fresh table, sim time from 0
             self.table.reset(-2.0)
             self.time_ns, self.history, self.restart_at_s = -self.PERIOD_NS, [], math.inf
@@ -86,7 +100,7 @@ class LockStepTablePlant:
         if setpoint is not None:
             self.setpoints.publish(Float64(data=setpoint))
         self.clock.publish(Clock(clock=stamp))
-        self.answered = False
+        self.answered, self.waiting_on, self.sent_s = False, stamp, time.monotonic()
 
     def run_until(self, time_s: float, timeline: int = 0) -> None:
         wait_until(lambda: self.timeline == timeline and self.time_s >= time_s, 120.0,
@@ -364,3 +378,34 @@ def test_max_force_cannot_be_raised_live_beyond_the_cells_f_max(ros):
     assert controller.get_parameter("max_force_n").value == 60.0 and controller.loop.settings.max_force_n == 60.0
     assert set_max_force(45.0).successful
     assert controller.loop.settings.max_force_n == 45.0
+
+
+def test_after_an_overload_trip_the_controller_backs_off_so_the_plant_resets(ros):
+    """Issue 37: the plant tripped at 152 N and stayed at 0 N, the controller pushing on into
+    the retracted table. The work rises 1.5 mm under a 60 N pass: the plant trips; the
+    controller retracts and holds (the trip resets), until the next pass, which it tracks."""
+    from hex_control.nodes.interfaces import LATCHED
+    from hex_control.plant.limits import ForceAxisLimits
+    from hex_control_msgs.msg import ForceTrajectory
+
+    limits = ForceAxisLimits(travel_mm=(-5.0, 2.0), overload_n=150.0)
+    plant = LockStepTablePlant(ros, lambda t: None, hold_at_s=0.0, limits=limits)
+    controller = start_loop(ros, plant, "measurement")
+    planner = ros.node("planner").create_publisher(ForceTrajectory, "/grinding/force_trajectory", LATCHED)
+    planner.publish(_trajectory(0, 60.0, 10.0, start_s=0.2))
+    wait_until(lambda: controller.loop.trajectory is not None, 10.0, what="pass 0")
+    plant.resume(hold_at_s=1.0)
+    plant.run_until(1.0)
+    assert plant.at(1.0)[1] == pytest.approx(60.0, abs=2.0)
+    plant.table.surface_mm = -1.5
+    plant.resume(hold_at_s=1.5)
+    plant.run_until(1.5)
+    assert limits.trips == 1 and controller.diagnostics.counters["overloads"] == 1
+    assert "overload: contact lost right after" in controller.diagnostics.summary()[1]
+    assert plant.at(1.5) == (-2.0, 0.0) and not limits.tripped  # retracted: the plant's trip reset
+    plant.table.surface_mm = None
+    planner.publish(_trajectory(1, 40.0, 2.0, start_s=2.0))
+    wait_until(lambda: controller.loop.trajectory is not None, 10.0, what="pass 1")
+    plant.resume()
+    plant.run_until(3.0)
+    assert plant.at(3.0)[1] == pytest.approx(40.0, abs=2.0) and limits.trips == 1
