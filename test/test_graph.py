@@ -99,3 +99,44 @@ def test_every_parameter_file_of_the_graph_applies_in_any_namespace_and_names_to
     for name in ("pass", "force"):
         predictor = node_parameters("load_predictor.yaml", f"load_predictor/{name}")
         assert predictor["input_namespace"] == "parent" and not predictor["input_topic"].startswith(("/", "~"))
+
+
+#: inputs of the graph that no node of it feeds: hand use, where the first publisher heard owns them
+HAND_INPUTS = {("input_shaper", "sample_owner")}
+
+
+def effective_parameters(spec) -> dict:
+    """A graph node's parameters as it starts: its PARAMETERS' defaults, then its sections of
+    the --params-file(s), then the -p values on its command line (as strings)."""
+    import importlib
+
+    module = importlib.import_module(f"hex_control.nodes.{spec.module}")
+    values = {name: parameter.default for name, parameter in module.PARAMETERS.items()}
+    arguments = list(spec.arguments)
+    node = {"load_predictor_pass": "load_predictor/pass", "load_predictor_force": "load_predictor/force"}.get(
+        spec.name, spec.name)
+    for i, argument in enumerate(arguments[:-1]):
+        if argument == "--params-file":
+            section = yaml.safe_load(Path(arguments[i + 1]).read_text()).get(f"/**/{node}", {})
+            values.update(section.get("ros__parameters", {}))
+        elif argument == "-p":
+            name, _, value = arguments[i + 1].partition(":=")
+            values[name] = value
+    return values
+
+
+def test_every_command_input_of_the_graph_names_its_source_relative_to_the_cell():
+    """Issue 37 item 3 in the graph the project starts: every ``*_owner`` (and a predictor's
+    ``input_owner``) names the node it takes commands from, not '' (the first heard), except
+    the inputs no node of the graph feeds (jogging by hand); relative names, so that a cell
+    under a namespace obeys its own nodes."""
+    owners = {}
+    for spec in graph_nodes(Path("/tmp/jobs"), namespace="/cell3"):
+        for name, value in effective_parameters(spec).items():
+            if name.endswith("_owner"):
+                owners[(spec.name, name)] = value
+    assert ("plant", "force_command_owner") in owners and ("load_predictor_pass", "input_owner") in owners
+    unnamed = {key for key, value in owners.items() if not str(value).strip()}
+    assert unnamed == HAND_INPUTS, owners
+    absolute = {key: value for key, value in owners.items() if str(value).strip().startswith("/")}
+    assert not absolute, absolute
