@@ -30,16 +30,18 @@ def start_planner(ros, spawn, *arguments):
     spawn(["hex-pass-planner", "--ros-args", "-p", "use_sim_time:=true", "-p", "contour_wait_s:=1.0", "-p",
            "start_delay_s:=0.0", *arguments])
     node = ros.node("pass_client")
+    # the planner obeys the sequence planner's commands and the plant's contours only
+    commander, scanner = ros.node("sequence_planner"), ros.node("plant")
     outputs = {
         "trajectory": ros.collect(ForceTrajectory, "/grinding/force_trajectory", LATCHED),
         "status": ros.collect(DiagnosticStatus, "/pass_planner/status", LATCHED),
         "path": ros.collect(ToolPath, "/motion/tool_path_raw", LATCHED),
         "result": ros.collect(PassResult, "/grinding/pass_result", RESULTS),
     }
-    publishers = {"command": node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED),
-                  "contour": node.create_publisher(ContourMsg, "/grinding/contour", LATCHED)}
+    publishers = {"command": commander.create_publisher(PassCommand, "/grinding/pass_command", LATCHED),
+                  "contour": scanner.create_publisher(ContourMsg, "/grinding/contour", LATCHED)}
     ros.wait_for_match(node, "/grinding/force_trajectory", publishers=1, timeout_s=20.0)
-    ros.wait_for_match(node, "/grinding/pass_command", subscribers=1, timeout_s=20.0)
+    ros.wait_for_match(commander, "/grinding/pass_command", subscribers=1, timeout_s=20.0)
     return publishers, outputs
 
 
@@ -242,3 +244,36 @@ def test_a_lost_reachability_answer_is_asked_again(ros, spawn):
         stand_in.close()
     assert len(requests) >= 2 and requests[0] == requests[-1] > 10  # a slow machine may ask a third time
     assert len(outputs["trajectory"]) == 1 and outputs["result"] == []  # planned once, not refused
+
+
+def test_commands_and_contours_from_other_nodes_are_refused_and_counted(ros, spawn):
+    """Issue 37 item 1's attack: a forged PassCommand (right job id, 2.0 mm at 5 mm/s),
+    latched before the real one, and a forged contour: neither comes from the node the
+    planner obeys, so neither is planned on, whatever the arrival order; both are counted
+    as foreign."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from ros_harness import diagnostics_value
+
+    publishers, outputs = start_planner(ros, spawn, "-p", "reachability_service:=''")
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics")
+    rogue = ros.node("rogue")
+    forged_command = rogue.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
+    forged_contour = rogue.create_publisher(ContourMsg, "/grinding/contour", LATCHED)
+    ros.wait_for_match(rogue, "/grinding/pass_command", subscribers=1, timeout_s=20.0)
+    forged_command.publish(_command(depth=2.0, feed=5.0))
+    high = weld_bead(length_mm=60.0, height_mm=6.0, ripple_mm=0.1, seed=2)
+    forged_contour.publish(contour_to_message(high, "job-a", 0, 12.5))
+    wait_until(lambda: int(diagnostics_value(diagnostics, "/pass_planner", "foreign_pass_command") or 0) >= 1
+               and int(diagnostics_value(diagnostics, "/pass_planner", "foreign_contour") or 0) >= 1, 30.0,
+               what="the forged command and contour counted as foreign")
+    assert outputs["status"] == [] and outputs["result"] == []  # not even acknowledged
+    publishers["contour"].publish(contour_to_message(BEAD, "job-a", 0, 12.5))
+    publishers["command"].publish(_command())
+    trajectory = wait_until(lambda: outputs["trajectory"][-1] if outputs["trajectory"] else None, 30.0,
+                            what="the real command's force trajectory")
+    assert (trajectory.feed_speed_mm_s, trajectory.planned_cut_depth_mm) == (10.0, pytest.approx(0.3))
+    final = trajectory.planned_final_contour  # planned on the plant's contour, not the forged one
+    removed = 12.5 * (np.trapezoid(BEAD.z_mm, BEAD.x_mm) - np.trapezoid(final.z_mm, final.x_mm))
+    assert removed == pytest.approx(0.3 * 12.5 * 60.0, rel=0.02)
+    assert len(outputs["trajectory"]) == 1 and outputs["result"] == []

@@ -261,7 +261,8 @@ def plan_pass_static(contour: Contour, process: GrindingProcess, compliance: Com
 class ForcePlan:
     """What the pass planner hands down, whichever planner made it: the normal force and
     the disk centre's (x, H) against time from the start of grinding, the predicted final
-    contour, the depth planned and why it differs from the one requested."""
+    contour, the depth planned and why it differs from the one requested; and the disk
+    tip's path (x, z) the plan runs, for the part-safety check against the parent."""
 
     time_s: np.ndarray
     centre_x_mm: np.ndarray
@@ -271,22 +272,26 @@ class ForcePlan:
     planned_depth_mm: float
     reason: str
     simulations: int = 1  # dynamic simulations the plan took (the stall guard's search)
+    tip_x_mm: np.ndarray | None = None
+    tip_z_mm: np.ndarray | None = None
 
 
 def plan_forces(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float, planner: str = "dynamic",
                 control: str = "height", gains=None, step_mm: float = 0.1,
-                compliance: Compliance | None = None) -> ForcePlan:
+                compliance: Compliance | None = None, shape_mm=None) -> ForcePlan:
     """The dynamic planner (6.6) or the static one (8.3 item 3; the tool holds the tip on
-    the final contour at the relaxed angle)."""
+    the final contour at the relaxed angle). ``shape_mm``: the desired final shape under the
+    level top (the parent surface if None), as :func:`final_contour` takes it."""
     if planner == "dynamic":
-        plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm, gains=gains)
+        plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm, shape_mm, gains=gains)
+        h = plan.simulation.history
         return ForcePlan(plan.time_s, plan.centre_x_mm, plan.height_mm, plan.force_n, plan.simulation.final,
-                         plan.planned_depth_mm, plan.reason, plan.simulations)
+                         plan.planned_depth_mm, plan.reason, plan.simulations, h["tip_x_mm"], h["tip_z_mm"])
     if planner != "static":
         raise PlanningError(f"planner must be 'dynamic' or 'static', got {planner!r}")
     plan = plan_pass_static(contour, model.process, compliance or Compliance.linear(model.spring_n_mm_rad),
-                            cut_depth_mm, feed_mm_s)
+                            cut_depth_mm, feed_mm_s, shape_mm)
     angle = model.relaxed_angle_rad
     return ForcePlan(plan.time_s, plan.x_mm + model.radius_mm * math.cos(angle),
                      plan.target.contour.z_mm + model.radius_mm * math.sin(angle), plan.force_n,
-                     plan.target.contour, cut_depth_mm, "")
+                     plan.target.contour, cut_depth_mm, "", 1, plan.x_mm, plan.target.contour.z_mm)

@@ -1,0 +1,326 @@
+"""The pass planner's core (seed 002 ch. 6): which command is planned on which contour,
+and the checks that keep a plan off the parent surface. No ROS here: the node
+(:mod:`hex_control.nodes.pass_planner`) converts messages to :class:`PassRequest` and
+:class:`Scan`, runs :meth:`PassSession.plan` on a worker thread, asks the kinematics
+node whether the path is reachable, and publishes what a :class:`Verdict` says.
+
+Which command on which contour: a command for pass k is planned on the latest contour
+after k passes (the same job, or a contour without a job id). One command waits for its
+contour at a time: of two, the one for an earlier pass of the same job is refused as
+superseded, so every command ends exactly once (planned or refused). A command already
+answered or in hand (a latched re-delivery, the sequence planner sending it again) is
+ignored. A command whose contour has not come within ``contour_wait_s`` is refused.
+
+Part-safety invariant (issue 37 item 1), whatever the command says:
+- the command is checked against the scan it is planned on: feed within [feed_min,
+  feed_max], its force within [0, F_max] (the cell's), its K1 plausible, and its cut depth
+  no more than the material left over the parent (the scan's mean height above it): a
+  deeper cut is capped to that, and the plan says so;
+- the plan's own simulated final contour and the disk tip's path never run more than
+  PARENT_TOLERANCE_MM below the parent (the desired final contour): a plan that does is
+  planned again over a desired shape raised by its dip, at most PARENT_RETRIES times, and
+  refused if it still dips;
+- its peak force stays within F_max.
+
+Units: mm, s, N, J/mm^3.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from hex_control.grinding.coefficients import plausible_specific_energy
+from hex_control.grinding.config import PassPlannerConfig
+from hex_control.grinding.contour import Contour
+from hex_control.grinding.model import GrindingProcess
+from hex_control.grinding.pass_plan import ForcePlan, PlanningError, plan_forces
+from hex_control.grinding.tool_path import ToolPath, pass_tool_path
+
+PARENT_TOLERANCE_MM = 1e-3  # how far a plan's simulation may touch below the parent (numerical touch)
+PARENT_RETRIES = 3  # plans over a raised shape before a dipping plan is refused
+FORCE_TOLERANCE = 1e-9  # relative: F_max itself is a valid command
+
+
+@dataclass(frozen=True)
+class PassRequest:
+    """A PassCommand's content: the pass's mean cut depth (mm), feed (mm/s), the K1 its depth
+    was computed with (J/mm^3; 0 = the config's) and the normal force decided on (N)."""
+
+    job_id: str
+    pass_index: int
+    cut_depth_mm: float
+    feed_mm_s: float
+    specific_energy_j_mm3: float = 0.0
+    normal_force_n: float = 0.0
+
+    @property
+    def key(self) -> tuple[str, int]:
+        return self.job_id, self.pass_index
+
+    def supersedes(self, old: PassRequest) -> bool:
+        """A command for another job, or a later pass of the same one, replaces a waiting
+        one; an earlier pass of the same job (a late re-delivery from a restarted writer)
+        does not."""
+        return self.job_id != old.job_id or self.pass_index > old.pass_index
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A contour as it arrived: after ``pass_index`` passes of ``job_id`` ('' = any job),
+    the plant time it was scanned at (s), the bead width (mm; <= 0 = the config's), and the
+    contour, or None and the reason it is malformed."""
+
+    job_id: str
+    pass_index: int
+    stamp_s: float
+    bead_width_mm: float
+    contour: Contour | None
+    error: str = ""
+
+    def serves(self, request: PassRequest) -> bool:
+        return self.pass_index == request.pass_index and (not self.job_id or self.job_id == request.job_id)
+
+
+@dataclass(frozen=True)
+class PlannedPass:
+    """A plan ready to publish: the force plan, the tool path, the process it was planned
+    with, the scan's plant time (s), and its status (level 'ok' or 'warn', message, values)."""
+
+    plan: ForcePlan
+    path: ToolPath
+    process: GrindingProcess
+    contour_s: float
+    note: str
+    values: dict
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """How a command ended: ``planned`` (None if refused), the reason or the plan's note, and
+    the diagnostics counter to add (``planned`` or ``rejected_<kind>``)."""
+
+    request: PassRequest
+    planned: PlannedPass | None
+    reason: str
+    counter: str
+
+    @property
+    def refused(self) -> bool:
+        return self.planned is None
+
+
+def refusal(request: PassRequest, reason: str, kind: str) -> Verdict:
+    return Verdict(request, None, reason, f"rejected_{kind}")
+
+
+def material_left_mm(contour: Contour) -> float:
+    """The scan's mean height above the parent surface (mm): the material a job may remove."""
+    return contour.area_above(contour.parent_mm) / contour.length_mm
+
+
+def parent_dip(plan: ForcePlan, contour: Contour) -> tuple[float, float]:
+    """(mm, x mm): how far the plan's simulated final contour or its disk tip path cuts below
+    the parent surface at worst (<= 0: nowhere), and where, over the scanned ``contour``'s
+    span. What lay below the parent before the pass (an earlier gouge) is not the plan's:
+    the floor is the lower of the parent and the scan."""
+    final = plan.final
+    depth = np.minimum(final.parent_mm, contour.height_at(final.x_mm)) - final.z_mm
+    worst, at = float(np.max(depth)), float(final.x_mm[int(np.argmax(depth))])
+    if plan.tip_x_mm is not None:
+        x, z = np.asarray(plan.tip_x_mm, float), np.asarray(plan.tip_z_mm, float)
+        over = (x >= contour.x_mm[0]) & (x <= contour.x_mm[-1])
+        if np.any(over):
+            floor = np.minimum(np.interp(x[over], contour.x_mm, contour.parent_mm), contour.height_at(x[over]))
+            tip = floor - z[over]
+            i = int(np.argmax(tip))
+            if tip[i] > worst:
+                worst, at = float(tip[i]), float(x[over][i])
+    return worst, at
+
+
+def checked_positions(path: ToolPath) -> np.ndarray:
+    """The path positions TestPose checks (mm, machine frame): one sample in ten, and the last."""
+    return np.vstack([path.positions_mm[::10], path.positions_mm[-1:]])
+
+
+def pass_start_s(contour_s: float, clock_s: float, start_delay_s: float) -> float:
+    """When the pass's path starts (s, plant clock): ``start_delay_s`` after the later of the
+    scan it was planned on and the node's clock (in lock-step the plant's clock stands still
+    between passes, so that delay is the planning time charged, the same at any load)."""
+    return max(contour_s, clock_s) + start_delay_s
+
+
+class PassSession:
+    """The pass planner's state between messages: the latest scan, the command waiting for
+    its contour (and since when, s of a monotonic clock the caller keeps), the one being
+    planned, the one whose path is being checked for reach, and the commands answered."""
+
+    def __init__(self, config: PassPlannerConfig, contour_wait_s: float = 5.0, check_reach: bool = False):
+        self.config, self.contour_wait_s, self.check_reach = config, contour_wait_s, check_reach
+        self.scan: Scan | None = None
+        self.pending: PassRequest | None = None
+        self.pending_since = 0.0
+        self.planning: PassRequest | None = None
+        self.checking: tuple[PassRequest, PlannedPass, float] | None = None  # (command, plan, since s)
+        self.answered: set[tuple[str, int]] = set()
+
+    # -- inputs --------------------------------------------------------------------------
+    def on_scan(self, scan: Scan) -> None:
+        self.scan = scan
+
+    def in_hand(self, request: PassRequest) -> bool:
+        """Answered already, or waiting, being planned or being checked: a re-delivery."""
+        held = [self.pending, self.planning, self.checking[0] if self.checking else None]
+        return request.key in self.answered or any(r is not None and r.key == request.key for r in held)
+
+    def on_command(self, request: PassRequest, now_s: float) -> list[Verdict]:
+        """A new command (not :meth:`in_hand`): it waits for its contour; of two waiting, the
+        older ends here as superseded (returned)."""
+        refused = []
+        if self.pending is not None:  # one command waits for its contour at a time
+            older, newer = (self.pending, request) if request.supersedes(self.pending) else (request, self.pending)
+            refused.append(self._refuse(older, f"superseded by pass {newer.pass_index} of job {newer.job_id!r} "
+                                               "before its contour came", "superseded"))
+            if older is request:
+                return refused
+        self.pending, self.pending_since = request, now_s
+        return refused
+
+    def contour_for(self, request: PassRequest) -> Scan | None:
+        return self.scan if self.scan is not None and self.scan.serves(request) else None
+
+    def next_to_plan(self) -> tuple[PassRequest, Scan] | None:
+        """The waiting command and its scan, if it can be planned now (it is then being
+        planned: hand it to :meth:`plan`, then its outcome to :meth:`planned`)."""
+        if self.pending is None or self.planning is not None or self.checking is not None:
+            return None
+        scan = self.contour_for(self.pending)
+        if scan is None:
+            return None
+        self.planning, self.pending = self.pending, None
+        return self.planning, scan
+
+    def expired(self, now_s: float) -> Verdict | None:
+        """The waiting command refused if its contour has not come within contour_wait_s."""
+        if self.pending is None or self.contour_for(self.pending) is not None \
+                or now_s - self.pending_since <= self.contour_wait_s:
+            return None
+        request, self.pending = self.pending, None
+        latest = "none" if self.scan is None else f"the one after {self.scan.pass_index} passes"
+        return self._refuse(request, f"no contour for pass {request.pass_index} (latest: {latest})", "no_contour")
+
+    # -- planning (thread-safe: reads only the immutable config) ---------------------------
+    def plan(self, request: PassRequest, scan: Scan) -> PlannedPass | Verdict:
+        """Check the command against the scan, plan it and check the plan against the parent;
+        a refusal (a Verdict) if any check fails."""
+        try:
+            return self._plan(request, scan)
+        except (PlanningError, ValueError, FloatingPointError) as exc:
+            return refusal(request, str(exc), "unplannable")
+
+    def _plan(self, request: PassRequest, scan: Scan) -> PlannedPass:
+        config = self.config
+        depth, feed = request.cut_depth_mm, request.feed_mm_s
+        if not all(math.isfinite(v) for v in (depth, feed)):
+            raise PlanningError(f"non-finite command: cut depth {depth!r} mm, feed {feed!r} mm/s")
+        nominal = config.model.process.specific_energy_j_mm3
+        specific_energy_j_mm3 = request.specific_energy_j_mm3 or nominal
+        if not plausible_specific_energy(specific_energy_j_mm3, nominal):
+            raise PlanningError(f"implausible K1 {specific_energy_j_mm3!r} J/mm^3 (the config's is {nominal:g})")
+        if scan.contour is None:
+            raise PlanningError(f"bad contour: {scan.error}")
+        process = dataclasses.replace(config.model.process, specific_energy_j_mm3=specific_energy_j_mm3)
+        if not (process.feed_min_mm_s <= feed <= process.feed_max_mm_s):
+            raise PlanningError(f"feed speed {feed!r} mm/s outside [{process.feed_min_mm_s}, {process.feed_max_mm_s}]")
+        force_max_n = process.force_max_n
+        if not 0.0 <= request.normal_force_n <= force_max_n * (1 + FORCE_TOLERANCE):
+            raise PlanningError(f"commanded force {request.normal_force_n!r} N outside [0, F_max {force_max_n:g} N]")
+        if not depth > 0:
+            raise PlanningError(f"cut depth must be finite and > 0 mm, got {depth!r}")
+        contour = scan.contour
+        left = material_left_mm(contour)
+        if not left > 0:
+            raise PlanningError(f"no material left over the parent on the scan after {scan.pass_index} passes")
+        notes = []
+        if depth > left:
+            notes.append(f"cut depth capped from {depth:.4f} mm to the {left:.4f} mm left over the parent")
+            depth = left
+        if scan.bead_width_mm > 0:
+            process = dataclasses.replace(process, bead_width_mm=scan.bead_width_mm)
+        model = dataclasses.replace(config.model, process=process)
+        plan, raised = self._plan_above_parent(contour, model, depth, feed, notes)
+        if float(np.max(plan.force_n, initial=0.0)) > force_max_n * (1 + FORCE_TOLERANCE):
+            raise PlanningError(f"the plan needs {float(np.max(plan.force_n)):.1f} N, more than F_max "
+                                f"{force_max_n:g} N")
+        path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, config.path)
+        note = "; ".join(filter(None, [*notes, plan.reason]))
+        values = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
+                  "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size),
+                  "specific_energy_j_mm3": process.specific_energy_j_mm3, "simulations": plan.simulations,
+                  "requested_cut_depth_mm": request.cut_depth_mm, "material_left_mm": left,
+                  "shape_raised_mm": raised}
+        return PlannedPass(plan, path, process, scan.stamp_s, note, values)
+
+    def _plan_above_parent(self, contour: Contour, model, depth: float, feed: float, notes: list):
+        """The plan, and how far (mm) its desired shape had to be raised over the parent so
+        that its simulation stays within PARENT_TOLERANCE_MM of it (a finishing pass whose
+        controller overshoots at a bead end)."""
+        config, raised = self.config, 0.0
+        for attempt in range(PARENT_RETRIES + 1):
+            shape = None if raised == 0 else contour.parent_mm + raised
+            if raised > 0:  # no more than what is left over the raised shape
+                above = contour.area_above(shape) / contour.length_mm
+                if not above > 0:
+                    break
+                depth = min(depth, above)
+            plan = plan_forces(contour, model, depth, feed, config.planner, config.control, config.gains,
+                               config.step_mm, config.compliance, shape)
+            dip, at = parent_dip(plan, contour)
+            if dip <= PARENT_TOLERANCE_MM:
+                if raised > 0:
+                    notes.append(f"desired shape raised {raised:.4f} mm over the parent (the simulated pass "
+                                 f"cut below it)")
+                return plan, raised
+            raised += dip + PARENT_TOLERANCE_MM
+        raise PlanningError(f"the plan cuts {dip:.4f} mm below the parent at x = {at:.1f} mm, even with its "
+                            f"desired shape raised {raised - dip - PARENT_TOLERANCE_MM:.4f} mm")
+
+    # -- after planning ------------------------------------------------------------------
+    def planned(self, outcome: PlannedPass | Verdict, now_s: float) -> Verdict | None:
+        """The plan of the command being planned: a Verdict (planned or refused), or None
+        while its path waits for the reachability check."""
+        request, self.planning = self.planning, None
+        if isinstance(outcome, Verdict):
+            return self._answer(outcome)
+        if self.check_reach:
+            self.checking = (request, outcome, now_s)
+            return None
+        return self._answer(Verdict(request, outcome, outcome.note, "planned"))
+
+    def reach_overdue(self, now_s: float) -> bool:
+        return self.checking is not None and now_s - self.checking[2] > self.contour_wait_s
+
+    def reach_answer(self, first_unreachable_index: int) -> Verdict:
+        """TestPose's answer on :func:`checked_positions` of the path being checked."""
+        request, planned, _ = self.checking
+        self.checking = None
+        if first_unreachable_index >= 0:
+            x, y, z = checked_positions(planned.path)[first_unreachable_index]
+            return self._refuse(request, f"path pose ({x:.1f}, {y:.1f}, {z:.1f}) mm (machine frame) is out of the "
+                                         "machine's reach", "unreachable")
+        return self._answer(Verdict(request, planned, planned.note, "planned"))
+
+    def reach_failed(self, reason: str) -> Verdict:
+        request, self.checking = self.checking[0], None
+        return self._refuse(request, reason, "unchecked")
+
+    def _refuse(self, request: PassRequest, reason: str, kind: str) -> Verdict:
+        return self._answer(refusal(request, reason, kind))
+
+    def _answer(self, verdict: Verdict) -> Verdict:
+        self.answered.add(verdict.request.key)
+        return verdict
