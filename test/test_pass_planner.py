@@ -171,6 +171,41 @@ def test_force_guard_keeps_the_planned_force_within_f_max(bead, feed):
     assert plan.simulations <= 8
 
 
+STEEP_RIPPLED = {"steep ends, ripple 0.15": weld_bead(60.0, 1.0, 2.0, ripple_mm=0.15, seed=7),
+                 "steep ends, ripple 0.10": weld_bead(60.0, 1.0, 3.0, ripple_mm=0.1, seed=5)}
+
+
+@pytest.mark.parametrize("bead, feed", [(b, v) for b in STEEP_RIPPLED for v in (5.0, 20.0, 39.5, 75.0)])
+def test_a_plan_states_the_depth_its_own_simulation_removes(bead, feed):
+    """Issue 37 item 5: on beads with rounded, steep ends and ripple, at feeds across
+    [5, 75] mm/s, the deepest pass at the feed: the depth the plan states is what its own
+    simulation removes, within the search's 2 %. (The target's depth was stated before: at
+    75 mm/s the simulation removed 6-7 % less; test below.)"""
+    contour, process = STEEP_RIPPLED[bead], MODEL.process
+    plan = plan_pass(contour, MODEL, float(process.cut_depth_mm(process.force_max_n, feed)), feed)
+    area = process.bead_width_mm * contour.length_mm
+    simulated = plan.simulation.removed_mm3 / area
+    assert simulated == pytest.approx(plan.planned_depth_mm, rel=0.02)
+    if abs(simulated / (plan.target.removed_mm3 / area) - 1) > 0.02:
+        assert f"its simulation removes {simulated:.4f} mm" in plan.reason
+    assert np.max(plan.force_n) <= process.force_max_n
+
+
+def test_at_75_mm_s_the_height_control_lags_behind_steep_ends_and_ripple():
+    """Why the target's depth was not the plan's: the height PI (eq. 6.17) closes its tip
+    error at G2 / (1 + G1) = 9.5 /s, 8 mm of feed at 75 mm/s: after the steep start the tip
+    rides above its trajectory for the bead's first 15 mm and removes 7 % less in all."""
+    contour, process = STEEP_RIPPLED["steep ends, ripple 0.15"], MODEL.process
+    plan = plan_pass(contour, MODEL, float(process.cut_depth_mm(process.force_max_n, 75.0)), 75.0)
+    area = process.bead_width_mm * contour.length_mm
+    target = plan.target.removed_mm3 / area
+    assert plan.simulation.removed_mm3 / area < 0.95 * target  # the word it used to give
+    assert plan.planned_depth_mm == pytest.approx(plan.simulation.removed_mm3 / area)
+    grid = np.linspace(0.0, 15.0, 301)
+    lag = plan.simulation.final.height_at(grid) - plan.target.contour.height_at(grid)
+    assert np.mean(lag) > 0.005  # mm left above the target after the start
+
+
 def test_a_level_top_on_a_rippled_bead_needs_far_more_than_f_max_at_speed():
     """The behaviour the force guard replaces: the unguarded plan (issue 20: about 144 N at
     39.5 mm/s against F_max 60 N) comes from cutting the crests three times the mean."""
