@@ -229,6 +229,9 @@ def test_cancel_ends_the_job(ros, planner):
     planner()
     executor = PassExecutor(ros)
     executor.hold_from = 1  # the second pass never reports
+    stops = []
+    ros.node("stop_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: stops.append(c)
+                                                  if c.stop else None, RESULTS)
     handle = send(ros, GrindBead.Goal(job_id="bead2", bead_height_mm=1.5, bead_width_mm=12.5,
                                       bead_length_mm=300.0, deadline_s=120.0))
     # the planner has applied pass 0's result once it asks for pass 1 (which is held)
@@ -238,6 +241,9 @@ def test_cancel_ends_the_job(ros, planner):
     outcome = result_of(handle)
     assert outcome.status == GoalStatus.STATUS_CANCELED
     assert outcome.result.reason == GrindBead.Result.CANCELLED and outcome.result.passes == 1
+    # the pass in flight is stopped (issue 37: a cancelled pass was ground to the end)
+    wait_until(lambda: stops, 5.0, what="the stop of pass 1")
+    assert [(c.job_id, c.pass_index) for c in stops] == [("bead2", 1)]
 
 
 def test_a_long_solve_runs_off_the_executor_and_can_be_cancelled(ros, planner):

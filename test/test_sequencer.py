@@ -253,6 +253,8 @@ def test_cancel_during_the_solve_and_during_the_job(tmp_path):
     rig.result()
     out = rig.core.cancel("g3")
     assert out.finished[1]["reason"] == "cancelled" and out.finished[1]["passes"] == 1
+    # the pass in flight is stopped (issue 37: it was ground to the end): its command again, stop set
+    assert out.commands == [({**rig.commands[1], "stop": True}, True)] and rig.health.counts["passes_stopped"] == 1
     assert rig.core.cancel("g3") is None
 
 
@@ -404,8 +406,9 @@ def test_a_later_pass_rejected_by_the_pass_planner_aborts_the_job(tmp_path):
     rig.start()
     rig.result()
     rig.do(rig.core.on_pass_planner_status("job", "1", True, "unplannable", rig.now))  # refusal first
-    rig.result(status=REJECTED_PASS, reason="unplannable")
+    out = rig.result(status=REJECTED_PASS, reason="unplannable")
     assert rig.finished[1]["reason"] == "aborted" and rig.finished[1]["passes"] == 1
+    assert out.commands == []  # nothing of a refused pass runs: nothing to stop
 
 
 def test_faulted_and_aborted_passes_are_re_decided_from_the_scan_and_said_in_the_end(tmp_path):
@@ -445,7 +448,8 @@ def test_a_pass_overdue_warns_then_errs_then_ends_the_job_aborted(tmp_path):
     assert level == "warn" and f"pass 0 outstanding {due + 5.0:.0f} s, 5 s past its due {due:.0f} s" in text
     rig.do(rig.core.tick(3 * due + 1.0))
     assert rig.health.faults["overdue"][0] == "error"
-    rig.do(rig.core.tick(241.0))
+    out = rig.do(rig.core.tick(241.0))
+    assert out.commands == [({**rig.commands[0], "stop": True}, True)]  # the stalled pass ended
     _, result, _ = rig.finished
     assert result["reason"] == "aborted" and "pass 0 outstanding 241 s" in result["message"]
     assert "no pass result before the timeout (240 s)" in result["message"]

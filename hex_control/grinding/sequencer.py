@@ -29,6 +29,8 @@ asked for and against the plant's scans.
   there, and the job's end message and log say which passes did not run as planned, and why.
 - A goal is checked when it arrives: invalid values, bounds, and the bead it names against
   the plant's latest scan (length, mean height); a refused goal never starts.
+- A job that ends with a pass in flight (cancelled, aborted) sends that pass's command again
+  with ``stop`` set: the force controller retracts instead of grinding it to the end.
 - A pass outstanding past its due time (planned duration x ``overdue_factor`` +
   ``overdue_margin_s``) is a WARN fault naming the pass and how late, ERROR past three
   times that, and ends the job ABORTED after ``pass_timeout_s``.
@@ -146,11 +148,11 @@ class SolveRequest:
 
 @dataclass
 class Outputs:
-    """What the node sends after a call: commands (PassCommand values; ``resend`` ones go
+    """What the node sends after a call: commands (PassCommand values; resends and stops go
     without feedback), the job's end (its goal token and GrindBead.Result values), a policy
     to solve off the executor thread."""
 
-    commands: list = field(default_factory=list)  # (values dict, resend bool)
+    commands: list = field(default_factory=list)  # (values dict, a resend or stop: bool)
     finished: tuple | None = None  # (goal token or None, result dict, a job's end: also on ~/job_result)
     solve: SolveRequest | None = None
 
@@ -441,9 +443,15 @@ class Sequencer:
         self.health.clear("overdue")
         out.commands.append((command, False))
 
-    def _finish(self, out: Outputs) -> None:
+    def _finish(self, out: Outputs, stop: bool = True) -> None:
+        """End: the result, and a stop of the pass in flight, if one is (issue 37: a cancelled
+        pass was ground to the end), unless ``stop`` is False (nothing of it runs)."""
         self._awaited = None  # a cancel while a prediction was awaited
         state = self.job.state
+        if stop and state.pending is not None and self.command is not None \
+                and self.command["pass_index"] == state.pending["pass_index"]:
+            out.commands.append(({**self.command, "stop": True}, True))  # the force controller retracts
+            self.health.count("passes_stopped")
         end = state.end
         result = {"reason": end["reason"], "message": end["message"], "passes": state.passes,
                   "material_remaining_mm": state.material_mm, "time_remaining_s": state.time_remaining_s,
@@ -479,7 +487,7 @@ class Sequencer:
             # the first pass refused (e.g. the bead is out of the machine's reach): the goal is
             # what cannot be done; later: the job cannot go on
             job.end(REJECTED if k == 0 else ABORTED, f"pass {k} rejected: {report.reason}")
-            self._finish(out)
+            self._finish(out, stop=False)
             return out
         if report.status not in STATUS_NAMES:
             return self._refuse(out, f"pass {k} result with unknown status {report.status}")
