@@ -55,7 +55,7 @@ class NodeSpec:
         return [sys.executable, "-P", "-m", f"hex_control.nodes.{self.module}", "--ros-args", *self.arguments]
 
 
-def graph_nodes(job_dir: Path, seed: int = 0, mode: str = "lockstep", plant_overrides: dict | None = None,
+def graph_nodes(job_dir: Path, seed: int = 0, *, mode: str = "lockstep", plant_overrides: dict | None = None,
                 machine_file: str | None = None, real_time_factor: float = 1.0, namespace: str = "") -> list[NodeSpec]:
     """The grinding hierarchy with the shipped configuration: plant (``mode``, process
     variation seeded by ``seed``), kinematics, input shaper, force controller (answering

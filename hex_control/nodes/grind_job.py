@@ -252,7 +252,7 @@ class JobSession:
     grinds on where it was. With ``resume`` the session takes up the unfinished job that a
     run cut off left in ``output``: ``resume_job`` instead of ``start_job``."""
 
-    def __init__(self, output: Path, seed: int = 0, mode: str = "lockstep", real_time_factor: float = 1.0,
+    def __init__(self, output: Path, seed: int = 0, *, mode: str = "lockstep", real_time_factor: float = 1.0,
                  plant_overrides: dict | None = None, placement: dict | None = None, machine_file: str | None = None,
                  namespace: str = "", record: bool = True, resume: bool = False):
         self.output = Path(output)
@@ -262,8 +262,9 @@ class JobSession:
         if not resume:
             workpiece.unlink(missing_ok=True)  # a finished job's part: this run grinds a fresh bead
         plant_overrides = {**(plant_overrides or {}), "workpiece_file": str(workpiece)}
-        self.graph = NodeGraph(graph_nodes(jobs, seed, mode, plant_overrides, machine_file, real_time_factor,
-                                           namespace), self.output / "logs", placement=placement)
+        self.graph = NodeGraph(graph_nodes(jobs, seed, mode=mode, plant_overrides=plant_overrides,
+                                           machine_file=machine_file, real_time_factor=real_time_factor,
+                                           namespace=namespace), self.output / "logs", placement=placement)
         self.seed, self.mode = seed, mode
         self.record = JobRecord()
         self.context = Context()
@@ -412,7 +413,7 @@ class JobSession:
 
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
             real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
-            timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
+            *, timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
             machine_file: str | None = None, restart_planner_after: int | None = None,
             namespace: str = "", record: bool = True, resume: bool = False) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
@@ -420,8 +421,9 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
     and start it again -- it resumes from its job log. ``resume``: take up the unfinished
     job in ``output`` instead of starting one (``deadline_s`` and ``reset_time_s`` are the
     job's own then)."""
-    with JobSession(output, seed, mode, real_time_factor, plant_overrides, placement, machine_file,
-                    namespace, record, resume) as session:
+    with JobSession(output, seed, mode=mode, real_time_factor=real_time_factor, plant_overrides=plant_overrides,
+                    placement=placement, machine_file=machine_file, namespace=namespace, record=record,
+                    resume=resume) as session:
         if resume:
             session.resume_job()
         else:
