@@ -190,9 +190,14 @@ def _parser() -> argparse.ArgumentParser:
     play.add_argument("--rate", type=float, default=1.0, help="pace relative to the recording")
     play.add_argument("--topics", nargs="*", default=None, help="only these topics")
     play.add_argument("--wait", type=float, default=0.0, help="first wait this long for subscribers (s)")
+    play.add_argument("-l", "--loop", action="store_true", help="play again from the start until Ctrl-C")
+    play.add_argument("--clock", type=float, nargs="?", const=40.0, default=None, metavar="HZ",
+                      help="publish the recorded time on /clock at HZ (default 40) for nodes on sim time")
+    play.add_argument("-m", "--remap", nargs="+", default=None, metavar="FROM:=TO",
+                      help="publish a recorded topic under another name, e.g. /plant/wrench:=/old/wrench")
     bag = commands.add_parser("bag", help="inspect a recording (ros2 bag info)")
-    bag.add_subparsers(dest="verb", required=True).add_parser("info", help="topics, types, counts, duration") \
-        .add_argument("directory")
+    bag.add_subparsers(dest="verb", required=True).add_parser(
+        "info", help="files, size, start, end, duration, and each topic's type and count").add_argument("directory")
 
     bench = commands.add_parser("bench", help="run benchmarks (ratios against in-process baselines)")
     bench.add_argument("cases", nargs="*", help="case names (default: all)")
@@ -202,13 +207,19 @@ def _parser() -> argparse.ArgumentParser:
     verbs = topic.add_subparsers(dest="verb", required=True)
     lst = verbs.add_parser("list", help="list topics")
     lst.add_argument("-t", "--show-types", action="store_true", help="types and endpoint counts")
-    lst.add_argument("--wait", type=float, default=1.0, help="discovery time (s)")
+    lst.add_argument("--include-hidden", action="store_true", help="also hidden topics (an action's _action/...)")
+    lst.add_argument("--wait", type=float, default=GRAPH_WAIT_S, help=GRAPH_WAIT_HELP)
+    topic_info = verbs.add_parser("info", help="a topic's type and endpoints (-v: each with its node and QoS)")
+    topic_info.add_argument("topic")
+    topic_info.add_argument("-v", "--verbose", action="store_true")
+    topic_info.add_argument("--wait", type=float, default=GRAPH_WAIT_S, help=GRAPH_WAIT_HELP)
     echo = verbs.add_parser("echo", help="print messages of a topic as YAML")
     echo.add_argument("topic")
     echo.add_argument("--once", action="store_true")
     echo.add_argument("--count", type=int, default=0, help="stop after N messages (0 = never)")
     echo.add_argument("--field", default="", help="dotted field path to print, e.g. wrench.force")
-    echo.add_argument("--timeout", type=float, default=10.0, help="wait for the topic (s)")
+    echo.add_argument("--timeout", type=float, default=10.0,
+                      help="wait this long for the first message, discovery included (s); none by then: exit 2")
     hz = verbs.add_parser("hz", help="print the receive rate of a topic")
     hz.add_argument("topic")
     hz.add_argument("--window", type=int, default=1000, help="messages in the statistics window")
@@ -231,23 +242,37 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: list and info verbs wait until discovery has settled (hex_control.nodes.ros_cli.common.settle_graph),
+#: at most this long (s)
+GRAPH_WAIT_S = 10.0
+GRAPH_WAIT_HELP = "wait at most this long (s) for discovery to settle (it ends sooner when the graph stands still)"
+
+
 def _ros_verbs(commands) -> None:
     """hexctl node / param / service / action: ros2cli's verbs (hex_control/nodes/ros_cli/)."""
     node = commands.add_parser("node", help="nodes of the graph (ros2 node stand-in)").add_subparsers(
         dest="verb", required=True)
-    node.add_parser("list", help="list nodes").add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    node.add_parser("list", help="list nodes").add_argument("--wait", type=float, default=GRAPH_WAIT_S,
+                                                            help=GRAPH_WAIT_HELP)
     info = node.add_parser("info", help="a node's topics, services and actions")
     info.add_argument("node", help="full name, e.g. /plant")
-    info.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    info.add_argument("--include-hidden", action="store_true", help="also hidden ones (an action's _action/...)")
+    info.add_argument("--wait", type=float, default=GRAPH_WAIT_S, help=GRAPH_WAIT_HELP)
     param = commands.add_parser("param", help="parameters of running nodes (ros2 param stand-in)").add_subparsers(
         dest="verb", required=True)
     for verb, text in (("list", "list a node's parameters"), ("get", "print a parameter"),
-                       ("set", "set a parameter (a YAML value)"), ("describe", "type, description, range"),
-                       ("dump", "all parameters as a parameter file")):
+                       ("set", "set a parameter (a YAML value)"),
+                       ("describe", "type, description, range, choices of one or more parameters"),
+                       ("dump", "all parameters as a parameter file"), ("load", "set the parameters of a file")):
         job = param.add_parser(verb, help=text)
         job.add_argument("node", help="full name, e.g. /force_controller")
-        if verb in ("get", "set", "describe"):
+        if verb in ("get", "set"):
             job.add_argument("name")
+        if verb == "describe":
+            job.add_argument("names", nargs="+")
+        if verb == "load":
+            job.add_argument("file", help="a parameter file (hexctl param dump's, or a launch one)")
+            job.add_argument("--no-use-wildcard", action="store_true", help="ignore the file's /** section")
         if verb == "set":
             job.add_argument("value")
         job.add_argument("--timeout", type=float, default=10.0, help="wait for the node (s)")
@@ -269,12 +294,18 @@ def _ros_verbs(commands) -> None:
     goal.add_argument("values", nargs="?", default="", help="YAML mapping of the goal's fields")
     goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
     goal.add_argument("--timeout", type=float, default=30.0, help="wait for the server and its answers (s)")
+    interface = commands.add_parser("interface", help="interface definitions (ros2 interface stand-in)") \
+        .add_subparsers(dest="verb", required=True)
+    interface.add_parser("show", help="a message's, service's or action's definition, nested types expanded") \
+        .add_argument("type", help="e.g. geometry_msgs/msg/WrenchStamped, hex_control_msgs/action/GrindBead")
 
 
 def _list_verb(verbs, what: str) -> None:
     listing = verbs.add_parser("list", help=f"list {what}")
     listing.add_argument("-t", "--show-types", action="store_true")
-    listing.add_argument("--wait", type=float, default=1.0, help="discovery (s)")
+    if what == "services":
+        listing.add_argument("--include-hidden", action="store_true", help="also an action's _action/... services")
+    listing.add_argument("--wait", type=float, default=GRAPH_WAIT_S, help=GRAPH_WAIT_HELP)
 
 
 def _ros_verb(args) -> int:
@@ -282,7 +313,9 @@ def _ros_verb(args) -> int:
         from hex_control.nodes.ros_cli import topic
 
         if args.verb == "list":
-            return topic.topic_list(args.show_types, args.wait)
+            return topic.topic_list(args.show_types, args.wait, args.include_hidden)
+        if args.verb == "info":
+            return topic.topic_info(args.topic, args.verbose, args.wait)
         if args.verb == "echo":
             return topic.topic_echo(args.topic, args.once, args.count, args.field, args.timeout,
                                     args.qos_durability, args.qos_reliability, args.qos_depth)
@@ -293,7 +326,8 @@ def _ros_verb(args) -> int:
     if args.command == "node":
         from hex_control.nodes.ros_cli import node
 
-        return node.node_list(args.wait) if args.verb == "list" else node.node_info(args.node, args.wait)
+        return node.node_list(args.wait) if args.verb == "list" else \
+            node.node_info(args.node, args.wait, args.include_hidden)
     if args.command == "param":
         from hex_control.nodes.ros_cli import param
 
@@ -301,13 +335,21 @@ def _ros_verb(args) -> int:
             return getattr(param, f"param_{args.verb}")(args.node, args.timeout)
         if args.verb == "set":
             return param.param_set(args.node, args.name, args.value, args.timeout)
-        return getattr(param, f"param_{args.verb}")(args.node, args.name, args.timeout)
+        if args.verb == "describe":
+            return param.param_describe(args.node, args.names, args.timeout)
+        if args.verb == "load":
+            return param.param_load(args.node, args.file, args.timeout, not args.no_use_wildcard)
+        return param.param_get(args.node, args.name, args.timeout)
     if args.command == "service":
         from hex_control.nodes.ros_cli import service
 
         if args.verb == "list":
-            return service.service_list(args.show_types, args.wait)
+            return service.service_list(args.show_types, args.wait, args.include_hidden)
         return service.service_call(args.service, args.type, args.values, args.timeout, not args.no_resend)
+    if args.command == "interface":
+        from hex_control.nodes.ros_cli.interface import interface_show
+
+        return interface_show(args.type)
     from hex_control.nodes.ros_cli import action
 
     if args.verb == "list":
@@ -555,11 +597,13 @@ def _exit_on_sigterm(signum, frame):
 def _demo(args) -> int:
     """``hexctl demo``: the run's options (resumed: the stored ones, a conflict refused), the
     run; a graph that fails (a node died, the loop stood) is one line on stderr and exit 3."""
-    from hex_control.nodes.grind_job import RUN_DEFAULTS, GraphFailure, run_demo, run_options
+    from hex_control.nodes.grind_job import RUN_DEFAULTS, GraphFailure, resumable_job_dir, run_demo, run_options
 
     given = {name: getattr(args, name) for name in RUN_DEFAULTS if getattr(args, name) is not None}
-    if args.resume is not None and args.jobs not in (None, 1):
-        raise ValueError(f"--resume takes up one job, not --jobs {args.jobs}")
+    if args.resume is not None:
+        if args.jobs not in (None, 1):
+            raise ValueError(f"--resume takes up one job, not --jobs {args.jobs}")
+        resumable_job_dir(args.resume)  # ValueError first if there is nothing to resume
     options = run_options(given, args.resume)
     try:
         return run_demo(args.resume or args.output, options, machine_file=MACHINES[options["machine"]],
@@ -574,15 +618,9 @@ def _demo(args) -> int:
 
 
 def _bag_info(directory: str) -> int:
-    from hex_control.recording.bag import bag_info
+    from hex_control.recording.bag import describe
 
-    info = bag_info(directory)
-    seconds = info["duration"]["nanoseconds"] / 1e9
-    print(f"Files:        {', '.join(info['relative_file_paths'])}\nStorage id:   {info['storage_identifier']}\n"
-          f"Duration:     {seconds:.3f} s\nMessages:     {info['message_count']}\nTopics:")
-    for entry in info["topics_with_message_count"]:
-        meta = entry["topic_metadata"]
-        print(f"  {meta['name']} | {meta['type']} | {entry['message_count']} | {meta['serialization_format']}")
+    print(describe(directory))
     return 0
 
 
@@ -698,7 +736,7 @@ def main(argv=None) -> int:
         if args.command == "play":
             from hex_control.nodes.recorder import play
 
-            return play(args.directory, args.rate, args.topics, args.wait)
+            return play(args.directory, args.rate, args.topics, args.wait, args.loop, args.clock, args.remap)
         if args.command == "bag":
             return _bag_info(args.directory)
         if args.command == "unit-commitment":

@@ -37,6 +37,10 @@ def test_a_run_without_stored_options_is_resumed_only_with_its_seed_given(tmp_pa
 
 
 def test_hexctl_demo_refuses_a_resume_with_a_conflicting_option_in_one_line(tmp_path, capsys):
+    assert main(["demo", "--resume", str(tmp_path)]) == 2  # nothing to resume: said first
+    assert "holds no unfinished job to resume" in capsys.readouterr().err
+    (tmp_path / "jobs").mkdir()
+    (tmp_path / "jobs" / "cut_off.jsonl").write_text('{"type": "goal"}\n{"type": "decision"}\n')
     store_run_options(tmp_path, {**RUN_DEFAULTS, "seed": 7})
     assert main(["demo", "--resume", str(tmp_path), "--seed", "3"]) == 2
     err = capsys.readouterr().err
