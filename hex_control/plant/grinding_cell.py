@@ -109,6 +109,10 @@ class PassMeasurement:
     peak_power_w: float
     burn_detected: bool
     stall_detected: bool
+    # the removal the drawn process gives against the nominal one at the same force: mu / K1
+    # of the pass over the nominal's (its dulling trend excluded); what a planner that knew
+    # only the nominal would see as its pass's deviation (plant.pass_verdict)
+    expected_removal_factor: float = 1.0
 
 
 class GrindingCell:
@@ -131,6 +135,7 @@ class GrindingCell:
         self.centre_mm = None  # (x, H) at the end of the last advance
         self.current = None  # the pass being measured: dict of accumulators
         self.passes_started = 0
+        self.removal_factor = 1.0  # of the pass being ground (PassMeasurement.expected_removal_factor)
 
     @property
     def contour(self) -> Contour:
@@ -144,6 +149,10 @@ class GrindingCell:
         """Draw the process of this pass (the disk dulls and wears with every pass started)."""
         self.model = self.variation.draw(self.nominal, self.passes_started, self.rng)
         self.zero_cut_force_n = float(self.model.process.zero_cut_force_n())
+        drawn, nominal = self.model.process, self.nominal.process
+        dulled_energy = nominal.specific_energy_j_mm3 * (1 + self.variation.dulling_per_pass) ** self.passes_started
+        friction = drawn.friction_coefficient / nominal.friction_coefficient if nominal.friction_coefficient else 1.0
+        self.removal_factor = friction * dulled_energy / drawn.specific_energy_j_mm3
         self.passes_started += 1
         self.stepper.model = self.model
         self.current = {"job_id": job_id, "pass_index": pass_index, "before": self.contour, "contact_s": 0.0,
@@ -205,4 +214,4 @@ class GrindingCell:
             contact, c["force_s"] / contact if contact else 0.0, c["peak_force"],
             c["feed_s"] / contact if contact else 0.0, c["energy"],
             c["energy"] / removed if removed > 1e-9 else math.nan, c["peak_power"], c["burn"],
-            c["peak_power"] > process.power_fraction * process.max_power_w)
+            c["peak_power"] > process.power_fraction * process.max_power_w, self.removal_factor)

@@ -1,0 +1,236 @@
+"""The plant's behaviour without ROS (hex_control.plant.core, .lockstep; issue 38 item 1):
+the lock-step gate, the cover of a pass, the free run of a silent controller, the strut
+inputs and the amplifier's watchdog, in milliseconds. The ROS tests (test_plant_node.py)
+check the same over real topics; these check the rules."""
+
+import numpy as np
+import pytest
+
+from hex_control.grinding.contour import weld_bead
+from hex_control.grinding.dynamic import DiskModel
+from hex_control.grinding.variation import ProcessVariation
+from hex_control.plant.core import CoreSettings, EventLog, PlantCore
+from hex_control.plant.grinding_cell import GrindingCell
+from hex_control.plant.limits import ForceAxisLimits
+from hex_control.plant.lockstep import LockstepGate, pass_covered, time_ns
+from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
+from hex_control.plant.simulator import PlantSimulator
+from hex_control.plant.strut_trajectory import StrutTrajectory
+
+PERIOD = 0.005
+NAMES = [f"strut_{i}" for i in range(6)]
+TIMEOUT = 1.0
+
+
+class Clock:
+    """A wall clock the test moves by hand (s)."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+class Outputs:
+    def __init__(self):
+        self.states, self.holds, self.started, self.ended = [], [], [], []
+
+    def state(self, snapshot):
+        self.states.append(snapshot.time_s)
+
+    def hold(self, snapshot):
+        self.holds.append(snapshot.time_s)
+
+    def pass_started(self, scheduled):
+        self.started.append(scheduled)
+
+    def pass_ended(self, report):
+        self.ended.append(report)
+
+
+def stroke_check(lengths_m):
+    if not all(2.0 <= v <= 3.4 for v in lengths_m):
+        raise ValueError(f"out of stroke: {lengths_m}")
+
+
+def make_core(mode="lockstep", grinding=False, wait_for_controller=True, end_time_s=0.0, command_timeout_s=0.1):
+    clock, outputs, events = Clock(), Outputs(), EventLog()
+    settings = CoreSettings(mode, PERIOD, 1.0, command_timeout_s, -5.0, -1.0, end_time_s, wait_for_controller)
+    monitor = None
+    if grinding:  # the pass bookkeeping only: the workpiece is not on this simulator
+        monitor = PassMonitor(GrindingCell(weld_bead(60.0, 0.8, seed=1), DiskModel(), ProcessVariation(0.0, 0.0)))
+    core = PlantCore(settings, PlantSimulator(seed=3), axis_limits=ForceAxisLimits(), outputs=outputs, events=events,
+                     strut_names=NAMES, monitor=monitor, check_struts=stroke_check, clock=clock)
+    core.publish_state()
+    return core, outputs, events, clock
+
+
+def answer(core, stamp_s=None, position_mm=-2.0):
+    """The controller's answer to the state the plant waits on (or to another stamp)."""
+    core.on_force_command(position_mm, time_ns(core.sim.time_s if stamp_s is None else stamp_s))
+
+
+def ramp(start_s, seconds=1.0):
+    t = np.arange(0.0, seconds + 1e-9, PERIOD)
+    return StrutTrajectory(start_s, t, np.repeat(np.linspace(2.60, 2.62, t.size)[:, None], 6, axis=1))
+
+
+def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on():
+    core, outputs, events, _ = make_core()
+    assert outputs.states == [0.0]
+    answer(core, 5.0)  # no state is stamped 5 s
+    assert events.counts == {"stale_force_commands": 1} and outputs.states == [0.0]
+    answer(core)
+    assert outputs.states == pytest.approx([0.0, 0.005])
+    answer(core, 0.0)  # the same answer again: it answers another state now
+    assert events.counts["stale_force_commands"] == 2 and len(outputs.states) == 2
+    answer(core)
+    assert outputs.states == pytest.approx([0.0, 0.005, 0.01])
+    core.on_force_command(float("nan"), time_ns(core.sim.time_s))
+    core.on_force_command(-2.0, None)  # a stamp that is no stamp
+    assert events.counts["rejected_force_command"] == 1 and events.counts["stale_force_commands"] == 3
+    assert len(outputs.states) == 3
+
+
+def test_a_state_is_sent_again_until_the_first_answer_then_silence_runs_free():
+    core, outputs, events, clock = make_core()
+    clock.now += TIMEOUT / 2
+    core.lockstep_watchdog(TIMEOUT)
+    assert outputs.states == [0.0]  # not yet
+    clock.now += TIMEOUT
+    core.lockstep_watchdog(TIMEOUT)
+    assert outputs.states == [0.0, 0.0] and "lockstep_timeouts" not in events.counts  # said again
+    answer(core)
+    assert core.gate.started and outputs.states[-1] == pytest.approx(0.005)
+    core.free_run()
+    assert len(outputs.states) == 3  # an answering controller: no free run
+    clock.now += TIMEOUT
+    core.lockstep_watchdog(TIMEOUT)
+    assert events.counts["lockstep_timeouts"] == 1 and "free_running" in events.faults
+    assert outputs.states[-1] == pytest.approx(0.01)  # advanced with the held command
+    for _ in range(3):
+        core.free_run()
+    assert outputs.states[-1] == pytest.approx(0.025)
+    core.on_force_command(-1.5, time_ns(1234.0))  # free running: any command is taken, answers the state
+    assert not core.gate.free_running and "free_running" not in events.faults and core.command_mm == -1.5
+    assert outputs.states[-1] == pytest.approx(0.03)  # and the lock-step resumes: no more free steps
+    core.free_run()
+    assert outputs.states[-1] == pytest.approx(0.03)
+
+
+def test_between_passes_the_clock_stands_still_until_a_pass_is_covered():
+    """With a workpiece, sim time advances only while a pass runs or is announced with its
+    whole path's strut trajectory held and its force trajectory in the controller's hands:
+    the time a pass waits for is the planner's start_delay_s, whatever the wall clock did."""
+    core, outputs, events, clock = make_core(grinding=True)
+    answer(core)
+    assert outputs.states == [0.0] and outputs.holds == [0.0]  # holding: said once where
+    clock.now += 100.0
+    core.lockstep_watchdog(TIMEOUT)
+    core.free_run()
+    assert outputs.states == [0.0] and outputs.holds == [0.0] and "lockstep_timeouts" not in events.counts
+    scan_s, start_delay_s = 0.0, 0.6  # the pass planner starts the pass start_delay_s after the scan
+    scheduled = ScheduledPass("job", 0, scan_s + start_delay_s, 0.7, 0.8, 0.9)
+    core.on_pass_announced(scheduled)
+    core.on_strut_trajectory(ramp(0.65))  # starts after the path: does not cover it
+    core.on_controller_status("trajectory", {"job_id": "job", "pass_index": "0"})
+    assert outputs.states == [0.0] and events.counts["passes_announced"] == 1
+    core.on_strut_trajectory(ramp(0.5, 0.3))  # from before the path, but ends before it does
+    assert outputs.states == [0.0]
+    core.on_strut_trajectory(ramp(0.55, 0.4))  # the whole path (a shaped path starts early)
+    assert outputs.states == pytest.approx([0.0, 0.005])
+    while core.sim.time_s < 1.0:
+        answer(core)
+    assert [s.pass_index for s in outputs.started] == [0]
+    assert outputs.states[-1] == pytest.approx(1.0)
+    assert core.sim.strut_commands_m == pytest.approx([2.62] * 6, abs=1e-4)  # the trajectory was followed
+
+
+def test_a_pass_waits_for_the_controller_to_hold_it_unless_told_not_to():
+    held = [ramp(0.5)]
+    scheduled = ScheduledPass("job", 2, 0.6, 0.7, 0.8, 0.9)
+    assert not pass_covered(scheduled, held, [("job", 1), ("other", 2)], True)
+    assert pass_covered(scheduled, held, [("job", 2)], True)
+    assert pass_covered(scheduled, held, [], False)
+    assert not pass_covered(None, held, [("job", 2)], True)
+    core, outputs, events, _ = make_core(grinding=True, wait_for_controller=False)
+    core.on_pass_announced(scheduled)
+    core.on_strut_trajectory(ramp(0.5))
+    answer(core)
+    assert outputs.states == pytest.approx([0.0, 0.005]) and outputs.holds == []
+    core.on_controller_status("watchdog", {"pass_index": "2"})
+    core.on_controller_status("trajectory", {"pass_index": "two"})
+    assert events.counts["ignored_controller_status"] == 2
+
+
+def test_strut_commands_are_applied_when_sim_time_reaches_their_stamps():
+    core, outputs, events, _ = make_core()
+    core.on_strut_command(NAMES, [2.6] * 6, 0.0)  # now: placed at once
+    assert core.sim.strut_commands_m == pytest.approx([2.6] * 6)
+    core.on_strut_command(NAMES[::-1], [2.61] * 5 + [2.7], 0.01)  # by name, in any order: strut_0 gets 2.7
+    core.on_strut_command([], [2.62] * 6, 0.02)  # no names: the machine's order
+    core.on_strut_command(NAMES, [2.65] * 6, 0.015)  # stamped before the last queued: out of order
+    assert events.counts["rejected_strut_command"] == 1
+    answer(core)
+    answer(core)  # the periods from 0 and 0.005 s
+    assert core.sim.strut_commands_m == pytest.approx([2.6] * 6)
+    answer(core)  # the period from 0.01 s: the command stamped 0.01 s holds in it
+    assert core.sim.strut_commands_m == pytest.approx([2.7] + [2.61] * 5)
+    answer(core)
+    answer(core)
+    assert core.sim.strut_commands_m == pytest.approx([2.62] * 6)  # from 0.02 s
+    for bad in ([50.0] * 6, [float("nan")] * 6):
+        core.on_strut_command(NAMES, bad, 0.0)
+    core.on_strut_command(["strut_0"], [2.6], 0.0)  # names missing
+    assert events.counts["rejected_strut_command"] == 4
+    assert core.sim.strut_commands_m == pytest.approx([2.62] * 6)
+
+
+def test_a_strut_trajectory_that_arrives_after_its_start_is_refused_and_a_later_one_replaces_the_rest():
+    core, outputs, events, _ = make_core()
+    for _ in range(4):
+        answer(core)
+    core.on_strut_trajectory(ramp(0.01))  # sim time is 0.02: never jump into a move part-way
+    assert events.counts["late_strut_trajectory"] == 1 and core.trajectories == []
+    core.on_strut_trajectory(ramp(0.5))
+    core.on_strut_trajectory(ramp(1.0))
+    core.on_strut_trajectory(ramp(0.8))  # replaces whatever the held ones would do from 0.8 s on
+    assert [t.start_s for t in core.trajectories] == [0.5, 0.8]
+    core.on_strut_trajectory(StrutTrajectory(1.0, np.array([0.0]), np.full((1, 6), 9.0)))  # out of stroke
+    assert events.counts["rejected_strut_trajectory"] == 1 and events.counts["strut_trajectories"] == 3
+
+
+def test_the_amplifier_watchdog_retracts_and_the_run_ends_at_its_end_time():
+    core, outputs, events, clock = make_core(command_timeout_s=0.02, end_time_s=0.05)
+    answer(core, position_mm=0.5)
+    clock.now += TIMEOUT
+    core.lockstep_watchdog(TIMEOUT)  # the controller falls silent: free running with the held command
+    for _ in range(3):
+        core.free_run()
+    assert core.command_mm == 0.5  # 0.02 s old: still held
+    core.free_run()
+    assert core.command_mm == -5.0  # older than command_timeout_s: driven to the retract stop
+    for _ in range(20):
+        core.free_run()
+    assert outputs.states[-1] == pytest.approx(0.05) and core.loop_end_s == clock.now  # stopped there
+
+
+def test_realtime_steps_the_periods_due_on_the_wall_clock():
+    core, outputs, events, clock = make_core(mode="realtime")
+    core.realtime_tick()
+    assert outputs.states == pytest.approx([0.0, 0.005])
+    clock.now += 3 * PERIOD  # a late tick steps the periods it owes
+    core.realtime_tick()
+    assert outputs.states[-1] == pytest.approx(0.02) and core.pacer.late_ticks == 1
+    core.on_force_command(0.3, None)  # any command is taken in real time
+    assert core.command_mm == 0.3 and "stale_force_commands" not in events.counts
+
+
+def test_the_first_answer_starts_the_loop_timing():
+    gate, now = LockstepGate(), 5.0
+    assert not gate.answer(now)  # nothing sent: not an answer
+    gate.sent(now)
+    assert gate.answer(now + 0.001) and gate.started and gate.loop_start_s == now + 0.001
+    assert gate.timing.latencies_s == []  # start-up is not the loop
+    assert LockstepGate.answers(time_ns(0.005), 0.005) and not LockstepGate.answers(None, 0.0)
