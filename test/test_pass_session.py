@@ -154,6 +154,8 @@ def test_a_command_without_its_contour_is_refused_after_contour_wait_s():
     (_request(depth=0.0), _scan(), "cut depth must be finite and > 0 mm"),
     (_request(), _scan(contour=None, error="200000 points exceed the limit of 100000"),
      "bad contour: 200000 points exceed the limit of 100000"),
+    (_request(), _scan(stamp_s=-1.0), "bad contour: stamp -1.0 s"),
+    (_request(), _scan(stamp_s=math.nan), "bad contour: stamp nan s"),
     (_request(), _scan(contour=Contour(BEAD.x_mm, BEAD.parent_mm - 0.01, BEAD.parent_mm)),
      "no material left over the parent on the scan after 0 passes"),
 ])
@@ -246,3 +248,24 @@ def test_parent_dip_sees_the_final_contour_and_the_tip_path():
     z[100] = final.parent_mm[100] - 0.02
     dip, at = parent_dip(dataclasses.replace(plan, final=Contour(final.x_mm, z, final.parent_mm)), BEAD)
     assert dip == pytest.approx(0.02) and at == final.x_mm[100]
+
+
+FINISHING = weld_bead(60.0, 0.1, 2.0, ripple_mm=0.05, seed=7)  # a bead nearly ground: steep ends, ripple
+
+
+@pytest.mark.parametrize("feed", [5.0, 39.5, 75.0])
+def test_a_finishing_pass_on_steep_rippled_ends_stays_on_the_parent_at_every_feed(feed):
+    """Issue 37 item 5: the last pass (all that is left) on a bead with steep ends and
+    ripple: planned as commanded, the simulated pass overshoots 2 um (5 mm/s) to 16 um
+    (75 mm/s) below the parent at the bead's end; the core plans it over a shape raised by
+    that, so it stays within PARENT_TOLERANCE_MM, and the depth it states is what its
+    simulation removes, within the search's 2 %."""
+    left = material_left_mm(FINISHING)
+    assert parent_dip(_direct(FINISHING, left, feed), FINISHING)[0] > PARENT_TOLERANCE_MM
+    verdict = _plan(PassSession(CONFIG), _request(depth=left, feed=feed, force=30.0), _scan(contour=FINISHING))
+    assert not verdict.refused
+    plan = verdict.planned.plan
+    assert parent_dip(plan, FINISHING)[0] <= PARENT_TOLERANCE_MM
+    removed = WIDTH * (np.trapezoid(FINISHING.z_mm, FINISHING.x_mm) - np.trapezoid(plan.final.z_mm, plan.final.x_mm))
+    assert removed / (WIDTH * FINISHING.length_mm) == pytest.approx(plan.planned_depth_mm, rel=0.02)
+    assert 0 < verdict.planned.values["shape_raised_mm"] < 0.025

@@ -233,6 +233,8 @@ class PassSession:
             raise PlanningError(f"implausible K1 {specific_energy_j_mm3!r} J/mm^3 (the config's is {nominal:g})")
         if scan.contour is None:
             raise PlanningError(f"bad contour: {scan.error}")
+        if not (math.isfinite(scan.stamp_s) and scan.stamp_s >= 0):  # the pass would start at that time
+            raise PlanningError(f"bad contour: stamp {scan.stamp_s!r} s")
         process = dataclasses.replace(config.model.process, specific_energy_j_mm3=specific_energy_j_mm3)
         if not (process.feed_min_mm_s <= feed <= process.feed_max_mm_s):
             raise PlanningError(f"feed speed {feed!r} mm/s outside [{process.feed_min_mm_s}, {process.feed_max_mm_s}]")
