@@ -71,7 +71,7 @@ def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on(ros, spawn):
     does not step the loop, so it can neither stop nor shift it (issue 21 item 10)."""
     from diagnostic_msgs.msg import DiagnosticArray
 
-    spawn(PLANT + ["-p", "lockstep_timeout_s:=3.0"])
+    spawn(PLANT + ["-p", "lockstep_timeout_s:=3.0", "-p", "force_command_owner:=answers"])  # this test answers
     wrenches = ros.collect(WrenchStamped, "/plant/wrench", KEEP, publishers=1)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     node = ros.node("answers")
@@ -99,7 +99,7 @@ def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on(ros, spawn):
 
 
 def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
-    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime"])
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "strut_command_owner:=strut_source"])
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     wrenches = ros.collect(WrenchStamped, "/plant/wrench", KEEP, publishers=1)
     commands = ros.node("strut_source").create_publisher(JointState, "/plant/strut_command", 10)
@@ -143,8 +143,10 @@ def test_the_pru3_head_follows_setpoints_through_the_kinematics_node(ros, spawn)
     from hex_control.kinematics.pru3 import Pru3Geometry, inverse_kinematics
 
     machine = ["-p", f"machine_file:={config_file('machines/pru3.yaml')}"]
-    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", *machine])
-    kinematics = spawn(["hex-kinematics", "--ros-args", "-p", "use_sim_time:=true", *machine])
+    # the struts obey the first node heard (the kinematics node), and the next once it has left
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "strut_command_owner:=''", *machine])
+    kinematics = spawn(["hex-kinematics", "--ros-args", "-p", "use_sim_time:=true", "-p", "setpoint_owner:=pru3_source",
+                        *machine])  # this test sends the setpoints
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
     node = ros.node("pru3_source")
@@ -201,7 +203,8 @@ def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
     publisher.publish(joint_trajectory_message(time_msg(0.2), names, 0.005, ramp))
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
-    spawn(PLANT + ["-p", "end_time_s:=1.0"])  # holds at t = 0 until a controller answers
+    spawn(PLANT + ["-p", "end_time_s:=1.0", "-p", "strut_command_owner:=trajectory_source"])  # holds at t = 0
+    # until a controller answers
     ros.wait_for_match(node, "/plant/strut_states", publishers=1)
     ros.wait_for_match(node, "/plant/strut_trajectory", subscribers=1)
     spawn(CONTROLLER)
@@ -225,7 +228,8 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
     made a move within the machine file's strut speed and acceleration."""
     from diagnostic_msgs.msg import DiagnosticArray
 
-    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0"])
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0",
+           "-p", "force_command_owner:=rogue", "-p", "strut_command_owner:=rogue"])  # this test commands
     forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
@@ -270,12 +274,13 @@ def test_the_plant_enforces_its_own_limits_whoever_commands_it(ros, spawn):
 
 def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn):
     """Issue 21 item 3, command ownership: the force axis obeys the configured node
-    (/operator) only, even when a rogue publishes first; the struts obey the first node heard.
-    A rogue's commands are refused and counted, and change nothing."""
+    (operator, named relative to the plant's namespace) only, even when a rogue publishes
+    first; the struts obey the first node heard (''). A rogue's commands are refused and
+    counted, and change nothing."""
     from diagnostic_msgs.msg import DiagnosticArray
 
     spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0",
-           "-p", "force_command_owner:=/operator"])
+           "-p", "force_command_owner:=operator", "-p", "strut_command_owner:=''"])
     forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
@@ -308,3 +313,37 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
     assert min(f.wrench.force.z for f in forces[start:]) > 15.0  # still pushed as the operator asked
     assert states[-1].position == pytest.approx([2.6] * 6, abs=1e-6)
     assert _plant_counter(diagnostics, "rejected_strut_command") is None  # refused as foreign, not as invalid
+
+
+def test_every_command_input_names_its_owner_by_default(ros, spawn):
+    """Issue 37 item 3, authority by configuration: in the graph the project starts each
+    input obeys its node of the cell from the start, not the first publisher heard: a jog
+    command sent before the force controller is up is refused, the controller's taken."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from hex_control.config import node_parameters
+    from hex_control.nodes.plant_setup import PARAMETERS
+
+    owners = {"force_command_owner": "force_controller", "strut_command_owner": "kinematics",
+              "force_trajectory_owner": "pass_planner", "controller_status_owner": "force_controller"}
+    assert {name: PARAMETERS[name].default for name in owners} == owners
+    assert {name: node_parameters("plant.yaml", "plant")[name] for name in owners} == owners
+
+    spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "command_timeout_s:=10.0"])
+    forces = ros.collect(WrenchStamped, "/plant/true_wrench", KEEP)
+    diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
+    jog = ros.node("jog").create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
+    controller = ros.node("force_controller").create_publisher(ForceAxisCommand, "/plant/force_axis_command", 10)
+    wait_until(lambda: jog.get_subscription_count() >= 1 and controller.get_subscription_count() >= 1, 15.0,
+               what="the plant")
+
+    def refused():
+        jog.publish(ForceAxisCommand(position_mm=0.3))
+        return _plant_counter(diagnostics, "foreign_force_command") not in (None, "0")
+    wait_until(refused, 10.0, interval_s=0.05, what="the jog command refused")
+    assert forces and max(f.wrench.force.z for f in forces) == 0.0  # first, and still refused
+
+    def obeyed():
+        controller.publish(ForceAxisCommand(position_mm=0.3))
+        return forces[-1].wrench.force.z > 15.0
+    wait_until(obeyed, 10.0, interval_s=0.05, what="the force controller obeyed")

@@ -81,11 +81,12 @@ PARAMETERS = {
                                 "[retract_mm, table_travel_max_mm]", -50.0, 50.0),
     "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
                        0.0, 1e5),
-    # command ownership (docs/graph.md threat model): '' = the first publisher heard
-    "force_command_owner": Spec("", "node whose force-axis commands the plant obeys, e.g. /force_controller"),
-    "strut_command_owner": Spec("", "node whose strut commands and trajectories the plant obeys, e.g. /kinematics"),
-    "force_trajectory_owner": Spec("", "node whose force trajectories announce the passes"),
-    "controller_status_owner": Spec("", "node whose status says which pass it holds"),
+    # command ownership (docs/graph.md threat model): one source per input, named relative to the
+    # plant's namespace (the cell's); '' = the first publisher heard (only for work by hand)
+    "force_command_owner": Spec("force_controller", "node whose force-axis commands the plant obeys"),
+    "strut_command_owner": Spec("kinematics", "node whose strut commands and trajectories the plant obeys"),
+    "force_trajectory_owner": Spec("pass_planner", "node whose force trajectories announce the passes"),
+    "controller_status_owner": Spec("force_controller", "node whose status says which pass it holds"),
     "grinding": Spec(False, "hold a workpiece: a bead ground where the struts put the disk"),
     "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")),
                          "machine YAML (config/machines/); must match the kinematics node's"),
