@@ -211,11 +211,24 @@ def test_a_force_guarded_plan_lowers_the_force_of_the_passes_after_it(tmp_path):
 
 
 def test_a_bead_too_high_for_the_deadline_ends_by_quit_now(tmp_path):
+    """3.5 mm of bead in 60 s: beyond the configured material grid (2 mm) and beyond what the
+    deadline allows. The grid grows to hold the job, the policy grinds hard and quits with
+    material left, and its promised penalty is that of the true start state (the clamped
+    grid would have promised C(2 mm) - about 2 units less)."""
+    from hex_control.grinding.config import parse_planner_config
+    from hex_control.grinding.sdp import solve
+
     rig = Rig(tmp_path)
     rig.start(bead_height_mm=3.5, deadline_s=60.0)
     rig.run()
     _, result, _ = rig.finished
     assert result["reason"] == "quit" and result["material_remaining_mm"] > 1.5 and result["time_remaining_s"] >= 0
+    assert result["passes"] == len(rig.commands) >= 1
+    process, charges, grid, cut_model = parse_planner_config(CONFIG)
+    process = dataclasses.replace(process, bead_width_mm=12.5, bead_length_mm=300.0)
+    promised = solve(process, charges, grid.covering(60.0, 3.5), cut_model).lookup(60.0, 3.5)["expected_penalty"]
+    clamped = solve(process, charges, grid, cut_model).lookup(60.0, 3.5)["expected_penalty"]
+    assert rig.commands[0]["expected_penalty"] == pytest.approx(promised, rel=1e-9) and promised > clamped + 1.0
 
 
 def test_a_bead_within_the_tolerance_is_done_at_once(tmp_path):
