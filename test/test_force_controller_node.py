@@ -199,11 +199,11 @@ def test_a_restarted_plant_is_followed_on_its_new_clock(ros, trigger):
 
 def test_a_stray_stamp_changes_nothing(ros):
     """One wrench stamped 2^31 - 1 s, one before the plant's time and one 0.3 s ahead of it
-    (issue 37: inside the old 1 s window, it dropped the pass) amid a lock-step loop, from any
-    publisher (measurement_owner ''): refused and counted, no jump, and the loop goes on
-    answering."""
+    (issue 37: inside the old 1 s window, it dropped the pass) amid a lock-step loop, from a
+    publisher the controller takes wrenches from: refused and counted, no jump, and the loop
+    goes on answering."""
     plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.0)  # still while the strays come
-    controller = start_loop(ros, plant, "measurement", Parameter("measurement_owner", value=""))
+    controller = start_loop(ros, plant, "measurement", Parameter("measurement_owner", value="plant,stray"))
     plant.run_until(1.0)
     node = ros.node("stray")
     stray = node.create_publisher(WrenchStamped, "/plant/wrench", 10)

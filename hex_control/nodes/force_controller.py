@@ -8,8 +8,8 @@ faults on /diagnostics. ``trigger``: ``timer`` runs the loop at ``rate_hz`` on t
 (sim time when use_sim_time is set); ``measurement`` once per received wrench, at its stamp
 (what the plant's lock-step needs for a deterministic loop).
 
-Topics (relative: one namespace is one cell); an ``*_owner`` names the one node an input
-takes messages from ('' = any, for hand use; config/force_controller.yaml names them all):
+Topics (relative: one namespace is one cell); an ``*_owner`` names the node(s) an input takes
+messages from ('' = the first heard, for hand use; config/force_controller.yaml names them):
   in  grinding/pass_command (PassCommand, latched): the pass a trajectory must belong to
   in  grinding/force_trajectory (ForceTrajectory, latched): desired force from header.stamp
   in  ~/setpoint (Float64, N): a direct desired force, refused while a trajectory is held
@@ -95,7 +95,7 @@ _MEANINGS = {  # name: (meaning, low, high); the default is the loop's (or the c
 }
 PARAMETERS = {name: Spec(_D[name], meaning, low, high, _CHOICES.get(name, ()), name not in LIVE)
               for name, (meaning, low, high) in _MEANINGS.items()}
-PARAMETERS |= {f"{name}_owner": Spec(owner, f"the node whose {name} messages are taken ('' = any)")
+PARAMETERS |= {f"{name}_owner": Spec(owner, f"the node(s) whose {name} messages are taken ('' = the first heard)")
                for name, owner in (("trajectory", ""), ("pass_command", "sequence_planner"), ("measurement", "plant"))}
 
 
@@ -124,7 +124,7 @@ class ForceControllerNode(Node):
             lambda parameters: self.loop.update(**{q.name: q.value for q in parameters if q.name in LIVE}))
         self.publisher = self.create_publisher(ForceAxisCommand, "plant/force_axis_command", 10)
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
-        owner = {name: self._owner(p[f"{name}_owner"]) for name in ("pass_command", "trajectory", "measurement")}
+        owner = {name: p[f"{name}_owner"] for name in ("pass_command", "trajectory", "measurement")}
         # latched: a controller that matches the planners late still gets the pass it must run
         info_subscription(self, PassCommand, "grinding/pass_command", self._on_pass_command, LATCHED,
                           self.diagnostics, "pass_command", owner_node=owner["pass_command"])
@@ -142,12 +142,6 @@ class ForceControllerNode(Node):
             self._jump_handler = self.get_clock().create_jump_callback(
                 JumpThreshold(min_forward=None, min_backward=Duration(nanoseconds=-1), on_clock_change=False),
                 post_callback=lambda jump: self.loop.clock_jumped(jump.delta.nanoseconds * 1e-9))
-
-    def _owner(self, name: str) -> str | None:
-        """The fully qualified name of a source node named relative to this node's namespace."""
-        if not name:
-            return None
-        return name if name.startswith("/") else f"{self.get_namespace().rstrip('/')}/{name}"
 
     def _check_parameters(self, parameters) -> SetParametersResult:
         for parameter in parameters:
