@@ -137,6 +137,12 @@ def test_a_command_without_its_contour_is_refused_after_contour_wait_s():
     session.on_command(_request(pass_index=4), 0.0)
     session.scan = None
     assert "(latest: none)" in session.expired(2.0).reason
+    busy = PassSession(CONFIG, contour_wait_s=1.0)  # not while another command is being planned
+    busy.on_scan(_scan())
+    busy.on_command(_request(), 0.0)
+    assert busy.next_to_plan() is not None
+    busy.on_command(_request(pass_index=1), 0.0)
+    assert busy.expired(5.0) is None
 
 
 @pytest.mark.parametrize("request_, scan, reason", [
@@ -187,7 +193,7 @@ def test_a_plan_is_refused_or_published_on_the_reachability_answer():
 
 # -- the part-safety invariant (issue 37 item 1) ----------------------------------------------
 
-LEFT_HALF_MM = weld_bead(length_mm=60.0, height_mm=0.55, end_ramp_mm=6.0, ripple_mm=0.05, seed=11)
+LEFT_HALF_MM = weld_bead(length_mm=30.0, height_mm=0.55, end_ramp_mm=6.0, ripple_mm=0.05, seed=11)
 
 
 def test_a_forged_deep_command_is_capped_to_the_material_left_and_cuts_nothing_below_the_parent():
@@ -209,19 +215,6 @@ def test_a_forged_deep_command_is_capped_to_the_material_left_and_cuts_nothing_b
     assert parent_dip(plan, LEFT_HALF_MM)[0] <= PARENT_TOLERANCE_MM
     assert np.min(plan.final.z_mm - plan.final.parent_mm) >= -PARENT_TOLERANCE_MM
     assert np.max(plan.force_n) <= CONFIG.model.process.force_max_n
-
-
-def test_a_finishing_pass_whose_simulation_overshoots_below_the_parent_is_planned_over_a_raised_shape():
-    """A finishing pass (all that is left) on a bead with rounded ends at 20 mm/s: the
-    force guard's capped plan overshoots 7.5 um below the parent at the bead's end; planned
-    again over the parent raised by that, it stays within the tolerance."""
-    bead = weld_bead(60.0, 1.0, 25.0, ripple_mm=0.05, seed=6)
-    left = material_left_mm(bead)
-    assert parent_dip(_direct(bead, left, 20.0), bead)[0] > 5 * PARENT_TOLERANCE_MM
-    verdict = _plan(PassSession(CONFIG), _request(depth=left, feed=20.0), _scan(contour=bead))
-    assert not verdict.refused and "desired shape raised" in verdict.reason
-    assert 0 < verdict.planned.values["shape_raised_mm"] < 0.02
-    assert parent_dip(verdict.planned.plan, bead)[0] <= PARENT_TOLERANCE_MM
 
 
 def test_a_gouge_already_in_the_scan_is_not_the_plans():
@@ -250,14 +243,14 @@ def test_parent_dip_sees_the_final_contour_and_the_tip_path():
     assert dip == pytest.approx(0.02) and at == final.x_mm[100]
 
 
-FINISHING = weld_bead(60.0, 0.1, 2.0, ripple_mm=0.05, seed=7)  # a bead nearly ground: steep ends, ripple
+FINISHING = weld_bead(30.0, 0.1, 2.0, ripple_mm=0.05, seed=7)  # a bead nearly ground: steep ends, ripple
 
 
 @pytest.mark.parametrize("feed", [5.0, 39.5, 75.0])
 def test_a_finishing_pass_on_steep_rippled_ends_stays_on_the_parent_at_every_feed(feed):
     """Issue 37 item 5: the last pass (all that is left) on a bead with steep ends and
-    ripple: planned as commanded, the simulated pass overshoots 2 um (5 mm/s) to 16 um
-    (75 mm/s) below the parent at the bead's end; the core plans it over a shape raised by
+    ripple: planned as commanded, the simulated pass overshoots 2 um (5 mm/s) to 15 um
+    (39.5 mm/s) below the parent; the core plans it over a shape raised by
     that, so it stays within PARENT_TOLERANCE_MM, and the depth it states is what its
     simulation removes, within the search's 2 %."""
     left = material_left_mm(FINISHING)

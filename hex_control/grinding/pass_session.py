@@ -205,8 +205,9 @@ class PassSession:
         return self.planning, scan
 
     def expired(self, now_s: float) -> Verdict | None:
-        """The waiting command refused if its contour has not come within contour_wait_s."""
-        if self.pending is None or self.contour_for(self.pending) is not None \
+        """The waiting command refused if its contour has not come within contour_wait_s (not
+        while another is being planned)."""
+        if self.pending is None or self.planning is not None or self.contour_for(self.pending) is not None \
                 or now_s - self.pending_since <= self.contour_wait_s:
             return None
         request, self.pending = self.pending, None
