@@ -161,7 +161,9 @@ def test_a_pass_waits_for_the_controller_to_hold_it_unless_told_not_to():
     assert outputs.states == pytest.approx([0.0, 0.005]) and outputs.holds == []
     core.on_controller_status("watchdog", {"pass_index": "2"})
     core.on_controller_status("trajectory", {"pass_index": "two"})
-    assert events.counts["ignored_controller_status"] == 2
+    core.on_controller_status("trajectory", {"pass_index": "\u00b2"})  # a digit to isdigit, not to int
+    core.on_controller_status("trajectory", {"pass_index": "1" * 5000})  # beyond int's digits
+    assert events.counts["ignored_controller_status"] == 4
 
 
 def test_strut_commands_are_applied_when_sim_time_reaches_their_stamps():

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.node import Node
@@ -50,28 +51,18 @@ from hex_control.nodes.interfaces import (
 from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.messages import fill_message, to_primitive
 from hex_control.nodes.parameters import declare_parameters
-from hex_control.nodes.plant_messages import PlantStreams, announced_pass, pass_result_message, stamp_ns
+from hex_control.nodes.plant_messages import (
+    NodeEvents,
+    PlantStreams,
+    announced_pass,
+    pass_result_message,
+    stamp_ns,
+)
 from hex_control.nodes.plant_setup import PARAMETERS, build_core
 from hex_control.nodes.runtime import run_node, wall_timer
-from hex_control.plant.workpiece_store import save_workpiece
+from hex_control.plant.workpiece_store import StoredWorkpiece, save_workpiece
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult
-
-
-class _Events:
-    """The core's counters and faults to /diagnostics, its lines to the node's log."""
-
-    def __init__(self, node, diagnostics: Diagnostics):
-        self.logger, self.diagnostics = node.get_logger(), diagnostics
-        self.count, self.fault, self.clear = diagnostics.count, diagnostics.fault, diagnostics.clear
-
-    def log(self, level: str, text: str) -> None:
-        if level == "info":  # one call site per severity: rclpy's logger holds each site to one
-            self.logger.info(text)
-        elif level == "warning":  # a flood of refusals says so once a second
-            self.logger.warning(text, throttle_duration_sec=1.0)
-        else:
-            self.logger.error(text, throttle_duration_sec=1.0)
 
 
 class PlantNode(Node):
@@ -82,7 +73,7 @@ class PlantNode(Node):
         declare_parameters(self, PARAMETERS)
         p = self.p
         self.diagnostics = Diagnostics(self)
-        self.core, self.workpiece = build_core(p, self, _Events(self, self.diagnostics))
+        self.core, self.workpiece = build_core(p, self, NodeEvents(self.get_logger(), self.diagnostics))
         period_s = p("control_period_s")
         self.streams = PlantStreams(self, self.core.strut_names, period_s, p("clock_period_s"),
                                     p("telemetry_period_s"), p("debug_streams"), self.workpiece is not None)
@@ -167,8 +158,8 @@ class PlantNode(Node):
 
     def pass_started(self, scheduled) -> None:
         if self.p("workpiece_file"):  # which pass was under way, should the plant stop before its scan
-            self.workpiece = type(self.workpiece)(**{**vars(self.workpiece), "started": (
-                scheduled.job_id, scheduled.pass_index, scheduled.path_start_s)})
+            self.workpiece = replace(self.workpiece, started=(scheduled.job_id, scheduled.pass_index,
+                                                              scheduled.path_start_s))
             save_workpiece(self.p("workpiece_file"), self.workpiece)
 
     def pass_ended(self, report) -> None:
@@ -176,7 +167,7 @@ class PlantNode(Node):
         self.contour_publisher.publish(self._contour_message(m.contour_after, m.job_id, m.pass_index + 1))
         result = pass_result_message(report, self.p("end_zone_mm"), self.core.sim.time_s)
         if self.p("workpiece_file"):  # on disk before anyone hears of it
-            self.workpiece = type(self.workpiece)(m.job_id, m.pass_index + 1, m.contour_after, to_primitive(result))
+            self.workpiece = StoredWorkpiece(m.job_id, m.pass_index + 1, m.contour_after, to_primitive(result))
             save_workpiece(self.p("workpiece_file"), self.workpiece)
         self.result_publisher.publish(result)
 

@@ -22,6 +22,23 @@ STATUS = {"completed": PassResult.COMPLETED, "aborted": PassResult.ABORTED,
           "faulted": getattr(PassResult, "FAULTED", 3)}
 
 
+class NodeEvents:
+    """The core's counters and faults (plant.core.Events) to a node's /diagnostics, its
+    lines to the node's log."""
+
+    def __init__(self, logger, diagnostics):
+        self.logger = logger
+        self.count, self.fault, self.clear = diagnostics.count, diagnostics.fault, diagnostics.clear
+
+    def log(self, level: str, text: str) -> None:
+        if level == "info":  # one call site per severity: rclpy's logger holds each site to one
+            self.logger.info(text)
+        elif level == "warning":  # a flood of refusals says so once a second
+            self.logger.warning(text, throttle_duration_sec=1.0)
+        else:
+            self.logger.error(text, throttle_duration_sec=1.0)
+
+
 def stamp_ns(stamp) -> int | None:
     """A header stamp in ns, None if its nanoseconds are out of range (not a stamp)."""
     return stamp.sec * 1_000_000_000 + stamp.nanosec if 0 <= stamp.nanosec < 1_000_000_000 else None

@@ -218,10 +218,11 @@ class PlantCore:
 
     def on_controller_status(self, message: str, values: dict) -> None:
         """The force controller's latched status: ``trajectory`` with the pass it holds."""
-        if message != "trajectory" or not str(values.get("pass_index", "")).isdigit():
-            self.events.count("ignored_controller_status")
+        index = str(values.get("pass_index", ""))
+        if message != "trajectory" or not (index.isascii() and index.isdigit() and len(index) <= 10):
+            self.events.count("ignored_controller_status")  # (a unicode digit or 5000 of them: no int)
             return
-        self.controller_holds.append((values.get("job_id", ""), int(values["pass_index"])))
+        self.controller_holds.append((str(values.get("job_id", "")), int(index)))
         self._lockstep_step()
 
     # -- timers ----------------------------------------------------------------------------
