@@ -281,7 +281,12 @@ class JobSession:
         self.result_future = None
 
     def __enter__(self) -> JobSession:
-        self.graph.start()
+        for name in self.graph.specs:
+            # resuming, the sequence planner comes last (resume_job): it sends the resumed pass's
+            # command at once, and the pass planner refuses a command whose contour has not come
+            # within contour_wait_s (5 s wall) -- a plant taking up the part may start slower
+            if not (self.resumed_log is not None and name == "sequence_planner"):
+                self.graph.start(name)
         return self
 
     def __exit__(self, *exc) -> None:
@@ -350,14 +355,16 @@ class JobSession:
         return goal.job_id
 
     def resume_job(self) -> str:
-        """Take up the unfinished job (``resume``): the sequence planner resumes it from its
-        log, the plant the part as last scanned; no goal is sent. The record holds the
-        passes from here on."""
+        """Take up the unfinished job (``resume``): the plant the part as last scanned, then
+        (once it has published that scan) the sequence planner the job from its log; no goal
+        is sent. The record holds the passes from here on."""
         if self.resumed_log is None:
             raise ValueError("this session was not opened to resume a job")
         goal, log = read_goal(self.resumed_log), read_log(self.resumed_log)
         self.observer.job_id = goal.job_id
         self.record.first_pass = sum(r["type"] == "result" for r in log)
+        self.spin_until(lambda: self.record.contours, 60.0, "the plant's scan of the part it took up")
+        self.graph.start("sequence_planner")
         self._ready()
         first = next((r for r in log if r["type"] == "decision"), None)
         self.record.goal = {"job_id": goal.job_id, "deadline_s": goal.deadline_s, "bead_width_mm": goal.bead_width_mm,
