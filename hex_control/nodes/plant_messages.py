@@ -19,7 +19,7 @@ from hex_control.plant.pass_monitor import PassReport, ScheduledPass
 from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
 
 STATUS = {"completed": PassResult.COMPLETED, "aborted": PassResult.ABORTED,
-          "faulted": getattr(PassResult, "FAULTED", 3)}
+          "faulted": PassResult.FAULTED}
 
 
 class NodeEvents:
