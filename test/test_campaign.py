@@ -11,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,15 @@ class ShuffledExecutor:
 
 
 JOBS = seeded_jobs(0, 10, "/nonexistent")
+
+
+def test_the_core_imports_neither_ros_nor_ray():
+    """The campaign's core is ROS-free, and only a campaign on Ray pays for importing Ray."""
+    probe = ("import sys, hex_control.campaign, hex_control.campaign.executors, hex_control.campaign.domains, "
+             "hex_control.cli\nprint(sorted(m for m in ('rclpy', 'ray', 'hex_control_msgs') if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip() == "[]"
 
 
 def test_seeded_jobs_are_the_demos_directories_and_refuse_nonsense(tmp_path):
@@ -143,6 +153,34 @@ def test_a_worker_that_dies_is_that_jobs_failure():
     assert [o.ok for o in outcomes] == [True, False, True, False]  # seed 3 fails as a fake graph failure
     assert outcomes[1].error == "WorkerDied: the job's process ended (exit code 9) without an outcome"
     assert outcomes[3].error.startswith("FakeGraphFailure")
+
+
+def lingering_job(job: Job) -> dict:
+    """Seed 0 ends once seed 1 has started; seed 1 runs until stopped, and says it was
+    stopped through its ``finally`` (as a cell's JobSession stops its graph)."""
+    flags = Path(job.settings["flags"])
+    if job.seed == 0:
+        deadline = time.monotonic() + 60.0
+        while not (flags / "1.started").exists() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return {"seed": 0}
+    (flags / "1.started").write_text("")
+    try:
+        time.sleep(120.0)
+    finally:
+        (flags / "1.stopped").write_text("")
+    return {"seed": 1}
+
+
+def test_a_stopped_campaign_lets_its_running_cells_unwind(tmp_path):
+    jobs = seeded_jobs(0, 2, tmp_path, {"flags": str(tmp_path)})
+    outcomes = ProcessExecutor(2).map_unordered(lingering_job, jobs)
+    start = time.monotonic()
+    first = next(outcomes)
+    assert first.seed == 0 and first.ok
+    outcomes.close()  # as Ctrl-C or SIGTERM in hexctl campaign: the running cell gets one SIGTERM
+    assert (tmp_path / "1.stopped").exists()  # its finally ran: a cell's graph would be stopped
+    assert time.monotonic() - start < 60.0
 
 
 def test_the_progress_bar_counts_done_and_failed_with_an_eta(capfd):

@@ -43,12 +43,17 @@ class SerialExecutor:
 
 
 def _exit_on_sigterm(signum, frame):
+    # once: a second SIGTERM must not cut short the unwinding that stops the cell's graph
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise SystemExit(128 + signum)
 
 
 def _cell(fn, job: Job, connection) -> None:
-    """A worker process's body: run the job, send its Outcome. SIGTERM (a stopped campaign)
-    raises SystemExit, so that the job's ``with`` blocks unwind (a cell stops its graph)."""
+    """A worker process's body: run the job, send its Outcome. The campaign stops its cells
+    with one SIGTERM, which raises SystemExit, so that the job's ``with`` blocks unwind (a
+    cell stops its graph, whose nodes run in sessions of their own); Ctrl-C in a terminal
+    reaches the campaign, not its cells, for the same reason (a second signal mid-unwind)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _exit_on_sigterm)
     try:
         connection.send(run_one(fn, job))
@@ -163,7 +168,9 @@ class RayExecutor:
                                           if str(exc).strip() else type(exc).__name__, time.monotonic() - start)
                     yield outcome
         finally:
-            for reference in references:  # stopped early: the tasks not yet ended
-                ray.cancel(reference)
+            if references:  # stopped early: the tasks not yet ended stop their graphs, then Ray goes
+                for reference in references:
+                    ray.cancel(reference)
+                ray.wait(list(references), num_returns=len(references), timeout=STOP_GRACE_S)
             if owned:
                 ray.shutdown()
