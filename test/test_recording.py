@@ -1,12 +1,15 @@
 """Issue 23 item 3: recordings in rosbag2's MCAP layout. Every message type of the graph
 goes through a recording as its CDR bytes and comes back out through the mcap reader and
-mcap-ros2-support's decoder -- the schema text alone, without rclpy -- field for field."""
+mcap-ros2-support's decoder -- the schema text alone, without rclpy -- field for field.
+Issue 40 item 3: bag info as ros2's (size, start, end, duration); play at the recorded
+pace (against the recorded timeline), with --loop, --clock and --remap."""
 
 import re
 import signal
 import subprocess
 import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -16,7 +19,8 @@ from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import serialize_message
 
 from hex_control.nodes.messages import message_class, to_primitive
-from hex_control.recording.bag import BagWriter, bag_info, message_definition, read_messages
+from hex_control.recording.bag import BagWriter, bag_info, describe, message_definition, read_messages
+from hex_control.recording.playback import paced, parse_remaps
 from ros_harness import wait_until
 
 MSGS = Path(sys.prefix) / "share" / "hex_control_msgs" / "msg"
@@ -139,7 +143,8 @@ def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_en
     assert (topic, type_name, deserialize_message(data, Float64).data) == ("/recorded/latched",
                                                                           "std_msgs/msg/Float64", 42.5)
     info = subprocess.run([hexctl, "bag", "info", str(out)], env=ros_env, capture_output=True, text=True, timeout=60)
-    assert info.returncode == 0 and "/recorded/latched | std_msgs/msg/Float64 | 1 | cdr" in info.stdout
+    assert info.returncode == 0 and "Topic information: Topic: /recorded/latched | Type: std_msgs/msg/Float64 | " \
+        "Count: 1 | Serialization Format: cdr" in info.stdout, info.stdout
     offered = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert offered["topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"][0]["durability"] \
         == "transient_local"
@@ -155,3 +160,112 @@ def test_hexctl_record_keeps_a_latched_message_and_bag_info_lists_it(ros, ros_en
     assert played.returncode == 0 and "played 1 messages on 1 topics" in played.stdout
     wait_until(lambda: again, 30.0, what="the played message")
     assert [m.data for m in again] == [42.5]
+
+
+def test_bag_info_says_size_start_end_and_duration(tmp_path):
+    with BagWriter(tmp_path / "run") as writer:
+        writer.add_topic("/a", "std_msgs/msg/Float64")
+        writer.add_topic("/b", "rosgraph_msgs/msg/Clock")
+        for t_ns, topic in ((1_765_000_000_250_000_000, "/a"), (1_765_000_045_750_000_000, "/b")):
+            writer.write(topic, serialize_message(message_class(
+                "std_msgs/msg/Float64" if topic == "/a" else "rosgraph_msgs/msg/Clock")()), t_ns)
+    text = describe(tmp_path / "run")
+    size = sum(f.stat().st_size for f in (tmp_path / "run").iterdir())
+    lines = dict(line.split(":", 1) for line in text.splitlines()[:8])
+    assert lines["Files"].strip() == "run_0.mcap" and lines["Storage id"].strip() == "mcap"
+    assert lines["Bag size"].strip() == (f"{size / 1024:.1f} KiB" if size >= 1024 else f"{size} B")
+    assert lines["Duration"].strip() == "45.500000000s" and lines["Messages"].strip() == "2"
+    assert lines["Start"].strip().endswith("(1765000000.250000000)")
+    assert lines["End"].strip().endswith("(1765000045.750000000)")
+    start_clock = time.strftime("%H:%M:%S", time.localtime(1_765_000_000))
+    assert f" {start_clock}.250000000 (" in lines["Start"]
+    assert text.splitlines()[8:] == [
+        "Topic information: Topic: /a | Type: std_msgs/msg/Float64 | Count: 1 | Serialization Format: cdr",
+        "                   Topic: /b | Type: rosgraph_msgs/msg/Clock | Count: 1 | Serialization Format: cdr"]
+
+
+class _FakeClock:
+    """A monotonic clock that moves only when slept on, or by ``cost`` a message handed out."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def sleep(self, seconds: float) -> None:
+        assert seconds >= 0
+        self.now += seconds
+
+
+def test_paced_keeps_the_recorded_timeline_and_lateness_does_not_add_up():
+    clock = _FakeClock()
+    recorded = [("/a", i, 1_000_000_000 * i // 2) for i in range(91)]  # 45 s at 2 Hz
+    sent = []
+    for message in paced(recorded, 1.0, now=lambda: clock.now, sleep=clock.sleep):
+        sent.append(clock.now - 100.0)
+        clock.now += 0.05 if message[1] != 10 else 3.0  # publishing costs 50 ms; one took 3 s
+    assert sent[:10] == pytest.approx([0.5 * i for i in range(10)])
+    # late after the slow one, at once; from then on, on the recorded timeline again
+    assert sent[10] == pytest.approx(5.0) and sent[11] == pytest.approx(8.0) and sent[12] == pytest.approx(8.05)
+    assert sent[17] == pytest.approx(8.5) and sent[-1] == pytest.approx(45.0)  # not 45 + 91 x 0.05 + 3
+    # at twice the pace: half the time; a tick (a /clock) every period, with the recorded time
+    clock = _FakeClock()
+    ticks = []
+    sent = [clock.now for _ in paced(recorded[:11], 2.0, now=lambda: clock.now, sleep=clock.sleep,
+                                     tick=lambda t_ns: ticks.append((clock.now - 100.0, t_ns)), tick_period_s=0.1)]
+    assert sent[-1] - sent[0] == pytest.approx(2.5)
+    assert len(ticks) == 26 and all(t_ns == pytest.approx(wall * 2e9, abs=1) for wall, t_ns in ticks)
+    with pytest.raises(ValueError):
+        list(paced(recorded, 0.0))
+
+
+def test_parse_remaps():
+    assert parse_remaps(["/a:=/b", "c:=d/e"]) == {"/a": "/b", "/c": "/d/e"}
+    assert parse_remaps(None) == {}
+    for bad in ("/a=/b", ":=/b", "/a:="):
+        with pytest.raises(ValueError):
+            parse_remaps([bad])
+
+
+def test_play_keeps_the_recorded_pace_remaps_loops_and_publishes_the_clock(ros, ros_env, tmp_path):
+    """61 messages over 3 s: received over 3 s (a 45.5 s recording took 49.7 s), under the
+    remapped name, with the recorded time on /clock; --loop plays again until Ctrl-C."""
+    from rosgraph_msgs.msg import Clock
+    from std_msgs.msg import Float64
+
+    first_ns = 1_765_000_000_000_000_000
+    with BagWriter(tmp_path / "paced") as writer:
+        writer.add_topic("/recorded/paced", "std_msgs/msg/Float64", [{"reliability": "reliable"}])
+        for i in range(61):
+            writer.write("/recorded/paced", serialize_message(Float64(data=float(i))), first_ns + i * 50_000_000)
+    arrivals = []
+    node = ros.node("play_listener")
+    node.create_subscription(Float64, "/recorded/paced_again", lambda m: arrivals.append((time.monotonic(), m.data)),
+                             100)
+    clocks = ros.collect(Clock, "/clock")
+    hexctl = str(Path(sys.executable).parent / "hexctl")
+    played = subprocess.run([hexctl, "play", str(tmp_path / "paced"), "--wait", "60", "--clock", "20",
+                             "--remap", "/recorded/paced:=/recorded/paced_again"], env=ros_env,
+                            capture_output=True, text=True, timeout=120)
+    assert played.returncode == 0, played
+    took = float(re.search(r"in ([\d.]+) s \(recorded span 3\.000 s, rate 1\)", played.stdout).group(1))
+    assert took == pytest.approx(3.0, abs=0.1), played.stdout
+    wait_until(lambda: len(arrivals) == 61, 30.0, what="the played messages")
+    assert [d for _, d in arrivals] == [float(i) for i in range(61)]
+    assert arrivals[-1][0] - arrivals[0][0] == pytest.approx(3.0, abs=0.3)  # as received, under load
+    stamps = [c.clock.sec * 1_000_000_000 + c.clock.nanosec for c in clocks]
+    assert len(stamps) >= 20 and all(first_ns <= s <= first_ns + 3_100_000_000 for s in stamps)
+    assert stamps == sorted(stamps)
+    # --loop: from the start again until Ctrl-C
+    arrivals.clear()
+    looping = subprocess.Popen([hexctl, "play", str(tmp_path / "paced"), "--loop", "--rate", "4",
+                                "--remap", "/recorded/paced:=/recorded/paced_again"], env=ros_env,
+                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wait_until(lambda: len(arrivals) > 61 + 5, 60.0, what="a second pass")
+    looping.send_signal(signal.SIGINT)
+    output, _ = looping.communicate(timeout=60)
+    assert looping.returncode == 0, output
+    data = [d for _, d in arrivals]
+    restart = data.index(60.0) + 1
+    assert data[restart:restart + 5] == [0.0, 1.0, 2.0, 3.0, 4.0]
+    refused = subprocess.run([hexctl, "play", str(tmp_path / "paced"), "--remap", "/not/recorded:=/x"], env=ros_env,
+                             capture_output=True, text=True, timeout=60)
+    assert refused.returncode == 2 and "has no topic /not/recorded" in refused.stderr

@@ -19,9 +19,11 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from hex_control.nodes.messages import message_class
 from hex_control.recording.bag import BagWriter, bag_info, read_messages
+from hex_control.recording.playback import paced, parse_remaps
 
 DISCOVERY_PERIOD_S = 0.5
 DEPTH = 1000  # a burst of this many messages between two executor turns is kept
+ACK_WAIT_S = 2.0  # play: at the end, wait this long in all for reliable subscribers' acknowledgements
 
 
 def _hidden(topic: str) -> bool:
@@ -117,18 +119,31 @@ def record(output: str, topics, all_topics: bool, duration_s: float | None) -> i
     return 0
 
 
-def play(directory: str, rate: float, topics=None, wait_s: float = 0.0) -> int:
-    """``hexctl play``: publish a recording's messages (raw) at ``rate`` times their pace,
-    each topic with the durability and reliability it was offered with; first wait up to
-    ``wait_s`` for every topic to have a subscriber, at the end for the reliable ones to
-    acknowledge what they got."""
+def play(directory: str, rate: float, topics=None, wait_s: float = 0.0, loop: bool = False,
+         clock_hz: float | None = None, remaps=None) -> int:
+    """``hexctl play``: publish a recording's messages (raw) at ``rate`` times their recorded
+    pace (:func:`hex_control.recording.playback.paced`: against the recorded timeline),
+    each topic with the durability and reliability it was offered with, under its name or
+    the one ``remaps`` (``from:=to``) give it; ``loop``: again from the start until Ctrl-C;
+    ``clock_hz``: publish the recorded time on /clock at that rate (for nodes on sim time).
+    First wait up to ``wait_s`` for every topic to have a subscriber, at the end (up to
+    ACK_WAIT_S in all) for the reliable ones to acknowledge what they got."""
     import rclpy
+    from builtin_interfaces.msg import Time
+    from rosgraph_msgs.msg import Clock
 
     from hex_control.nodes.runtime import init
 
     if not rate > 0:
         raise ValueError(f"need a rate > 0, got {rate}")
+    if clock_hz is not None and not clock_hz > 0:
+        raise ValueError(f"need a --clock rate > 0 Hz, got {clock_hz}")
     info = bag_info(directory)
+    remapped = parse_remaps(remaps)
+    recorded = {e["topic_metadata"]["name"] for e in info["topics_with_message_count"]}
+    unknown = sorted(set(remapped) - recorded) + sorted(set(topics or ()) - recorded)
+    if unknown:
+        raise ValueError(f"{directory} has no topic {', '.join(unknown)} (hexctl bag info {directory})")
     stop = init([])
     node = rclpy.create_node("hexctl_play", start_parameter_services=False)
     publishers = {}
@@ -141,25 +156,37 @@ def play(directory: str, rate: float, topics=None, wait_s: float = 0.0) -> int:
                          reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
         if topics is None or meta["name"] in topics:
-            publishers[meta["name"]] = node.create_publisher(message_class(meta["type"]), meta["name"], qos)
+            publishers[meta["name"]] = node.create_publisher(message_class(meta["type"]),
+                                                             remapped.get(meta["name"], meta["name"]), qos)
+    clock = node.create_publisher(Clock, "/clock", 10) if clock_hz else None
+
+    def tick(time_ns: int) -> None:
+        clock.publish(Clock(clock=Time(sec=time_ns // 1_000_000_000, nanosec=time_ns % 1_000_000_000)))
+
     end = time.monotonic() + wait_s
     while time.monotonic() < end and not all(p.get_subscription_count() for p in publishers.values()):
         stop.wait(0.05)
-    played, start_wall, start_bag = 0, time.monotonic(), None
+    played, first_wall, last_wall = 0, None, None
     try:
-        for topic, _, data, time_ns in read_messages(directory, list(publishers)):
-            if stop.is_set():
+        while not stop.is_set():
+            for topic, _, data, _ in paced(read_messages(directory, list(publishers)), rate, sleep=stop.wait,
+                                           tick=tick if clock else None,
+                                           tick_period_s=1.0 / clock_hz if clock_hz else 0.025,
+                                           stopped=stop.is_set):
+                publishers[topic].publish(data)
+                played += 1
+                last_wall = time.monotonic()
+                first_wall = first_wall or last_wall
+            if not loop or not played:
                 break
-            start_bag = time_ns if start_bag is None else start_bag
-            delay = (time_ns - start_bag) / 1e9 / rate - (time.monotonic() - start_wall)
-            if delay > 0:
-                stop.wait(delay)
-            publishers[topic].publish(data)
-            played += 1
+        acked_by = time.monotonic() + ACK_WAIT_S
         for publisher in publishers.values():
-            publisher.wait_for_all_acked(Duration(seconds=5))
+            publisher.wait_for_all_acked(Duration(nanoseconds=int(max(acked_by - time.monotonic(), 0.0) * 1e9)))
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-    print(f"played {played} messages on {len(publishers)} topics from {directory}")
+    span = info["duration"]["nanoseconds"] / 1e9
+    took = (last_wall - first_wall) if played else 0.0
+    print(f"played {played} messages on {len(publishers)} topics from {directory} in {took:.3f} s "
+          f"(recorded span {span:.3f} s, rate {rate:g})")
     return 0

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import re
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -24,11 +25,11 @@ from mcap.writer import CompressionType, Writer
 
 ROSBAG2_VERSION = 9
 _SEPARATOR = "=" * 80
-_PRIMITIVES = {"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32",
+PRIMITIVES = {"bool", "byte", "char", "float32", "float64", "int8", "uint8", "int16", "uint16", "int32", "uint32",
                "int64", "uint64", "string", "wstring"}
 
 
-def _share(package: str) -> Path:
+def interface_share(package: str) -> Path:
     """An interface package's share directory: from the ament index, else the venv's (the
     wheels install there; the index is only set up in a sourced ROS environment)."""
     from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
@@ -47,12 +48,12 @@ def _interface_text(type_name: str) -> str:
     ``pkg/action/Name_Feedback``) as its file writes it."""
     package, kind, name = type_name.split("/")
     if kind == "msg":
-        return (_share(package) / "msg" / f"{name}.msg").read_text()
+        return (interface_share(package) / "msg" / f"{name}.msg").read_text()
     base, _, part = name.rpartition("_")
     parts = {"action": ("Goal", "Result", "Feedback"), "srv": ("Request", "Response")}[kind]
     if part not in parts:
         raise ValueError(f"{type_name}: not a part of an {kind} ({', '.join(parts)})")
-    sections = re.split(r"^---\s*$", (_share(package) / kind / f"{base}.{kind}").read_text(), flags=re.M)
+    sections = re.split(r"^---\s*$", (interface_share(package) / kind / f"{base}.{kind}").read_text(), flags=re.M)
     return sections[parts.index(part)].strip("\n") + "\n"
 
 
@@ -67,7 +68,7 @@ def _used_types(text: str, package: str) -> list[str]:
         if len(tokens) > 1 and ("=" in tokens[1] or len(tokens) > 2 and tokens[2].startswith("=")):
             continue  # a constant
         base = re.split(r"[\[<]", tokens[0])[0]  # without array and string bounds
-        if base in _PRIMITIVES:
+        if base in PRIMITIVES:
             continue
         if base == "Header":
             used.append("std_msgs/msg/Header")
@@ -180,6 +181,45 @@ def bag_info(directory) -> dict:
     if not path.is_file():
         raise ValueError(f"{directory} is not a recording (no metadata.yaml)")
     return yaml.safe_load(path.read_text())["rosbag2_bagfile_information"]
+
+
+def _size(n_bytes: int) -> str:
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if n_bytes < 1024 or unit == "GiB":
+            return f"{n_bytes:.1f} {unit}" if unit != "B" else f"{n_bytes} B"
+        n_bytes /= 1024
+    return ""
+
+
+def _stamp(time_ns: int) -> str:
+    """A time as ``ros2 bag info`` prints it: local date and time, then seconds since the epoch."""
+    seconds, nanoseconds = divmod(time_ns, 1_000_000_000)
+    return f"{time.strftime('%b %e %Y %H:%M:%S', time.localtime(seconds))}.{nanoseconds:09d} " \
+           f"({seconds}.{nanoseconds:09d})"
+
+
+def describe(directory) -> str:
+    """``ros2 bag info``'s text: files, size, storage, duration, start, end, message count,
+    and each topic with its type, count and serialization format."""
+    info = bag_info(directory)
+    size = sum(f.stat().st_size for f in Path(directory).iterdir() if f.is_file())
+    start = info["starting_time"]["nanoseconds_since_epoch"]
+    duration = info["duration"]["nanoseconds"]
+    entries = info["topics_with_message_count"]
+    lines = [f"Files:             {', '.join(info['relative_file_paths'])}",
+             f"Bag size:          {_size(size)}",
+             f"Storage id:        {info['storage_identifier']}",
+             f"ROS Distro:        {info.get('ros_distro', '')}",
+             f"Duration:          {duration / 1e9:.9f}s",
+             f"Start:             {_stamp(start)}",
+             f"End:               {_stamp(start + duration)}",
+             f"Messages:          {info['message_count']}"]
+    for number, entry in enumerate(entries):
+        meta = entry["topic_metadata"]
+        lines.append(("Topic information: " if number == 0 else " " * 19)
+                     + f"Topic: {meta['name']} | Type: {meta['type']} | Count: {entry['message_count']} | "
+                     f"Serialization Format: {meta['serialization_format']}")
+    return "\n".join(lines)
 
 
 def read_messages(directory, topics=None):

@@ -1,7 +1,8 @@
 """``hexctl action list|send_goal``. send_goal prints the acceptance, each feedback (with
 ``--feedback``) and the result; Ctrl-C cancels the goal and waits for the server to say
 so, as ``ros2 action send_goal`` does. Exit 0 when the goal succeeded, 1 when it was
-rejected, aborted or canceled, 2 when no server answered."""
+rejected, aborted or canceled by the server, 2 when no server answered, 130 after a
+Ctrl-C (the goal canceled, whatever its final status)."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from rclpy.action import ActionClient, get_action_names_and_types
 
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.messages import to_primitive
-from hex_control.nodes.ros_cli.common import absolute, interface_message, spin_for, spin_until
+from hex_control.nodes.ros_cli.common import absolute, interface_message, settle_graph, spin_until
 
 STATUS = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_CANCELED: "CANCELED",
           GoalStatus.STATUS_ABORTED: "ABORTED"}
@@ -22,7 +23,7 @@ def action_list(show_types: bool, wait_s: float) -> int:
     rclpy.init(args=None)
     try:
         node = rclpy.create_node("hexctl_action_list", start_parameter_services=False)
-        spin_for(node, wait_s)
+        settle_graph(node, wait_s)
         for name, types in sorted(get_action_names_and_types(node)):
             print(f"{name} [{', '.join(types)}]" if show_types else name)
         node.destroy_node()
@@ -54,17 +55,21 @@ def send_goal(action: str, type_name: str, values: str, feedback: bool, timeout_
             return 1
         print(f"Goal accepted with ID: {bytes(handle.goal_id.uuid).hex()}", flush=True)
         result = handle.get_result_async()
+        interrupted = False
         try:
             while not result.done():
                 rclpy.spin_once(node, timeout_sec=0.1)
         except KeyboardInterrupt:
+            interrupted = True
             print("Canceling goal...", flush=True)
             cancel = handle.cancel_goal_async()
             spin_until(node, cancel.done, timeout_s, "the cancel's answer")
             spin_until(node, result.done, timeout_s, "the canceled goal's result")
         status = result.result().status
         _print("Result", result.result().result)
-        print(f"Goal finished with status: {STATUS.get(status, status)}")
+        print(f"Goal finished with status: {STATUS.get(status, status)}", flush=True)
+        if interrupted:
+            return 130  # the user's Ctrl-C, as every other verb: not the server's verdict
         return 0 if status == GoalStatus.STATUS_SUCCEEDED else 1
     finally:
         client.destroy()

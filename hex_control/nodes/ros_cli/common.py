@@ -52,6 +52,77 @@ def spin_for(node, seconds: float) -> None:
         rclpy.spin_once(node, timeout_sec=min(0.05, max(end - time.monotonic(), 0.0)))
 
 
+#: a graph listing waits at least this long (s): Fast DDS announces each participant again
+#: every 3 s (leaseDuration_announcementperiod), and one that does not answer a new
+#: participant's start-up announcements at once is found by its next one (measured here:
+#: participants found 0.1 to 4.2 s after start-up, most at once, some 3 s after the rest)
+MIN_DISCOVERY_S = 3.0
+#: ... and until nothing new has been discovered for this long (s) ...
+GRAPH_QUIET_S = 0.6
+#: ... or this share of the time discovery took until its last change, if longer: how long
+#: discovery takes depends on the load (at a load of 20 on 2 cores, three participants were
+#: found together 1.6 to 2.6 s after start-up)
+GRAPH_QUIET_SHARE = 1.0
+#: a node seen without endpoints counts as still being discovered for at most this long (s)
+#: (a node can have none: rosout disabled)
+INCOMPLETE_NODE_S = 3.0
+
+
+def graph_snapshot(node) -> tuple[tuple, bool]:
+    """(what discovery has found so far: the nodes with the topics and services of each, and
+    every topic's and service's name and types; whether every node found has endpoints).
+    A node seen without any (its participant is known, its endpoints are not yet) makes
+    the snapshot incomplete: every rclpy/rclcpp node publishes /rosout."""
+    nodes, complete = [], True
+    for name, namespace in sorted(node.get_node_names_and_namespaces()):
+        try:
+            entry = (namespace, name) + tuple(
+                tuple(sorted(n for n, _ in query(name, namespace)))
+                for query in (node.get_publisher_names_and_types_by_node,
+                              node.get_subscriber_names_and_types_by_node,
+                              node.get_service_names_and_types_by_node))
+        except Exception:  # noqa: BLE001 - gone between two calls (rclpy's NodeNameNonExistentError)
+            complete = False
+            continue
+        complete = complete and bool(entry[2])
+        nodes.append(entry)
+    topics = tuple(sorted((n, tuple(types)) for n, types in node.get_topic_names_and_types()))
+    services = tuple(sorted((n, tuple(types)) for n, types in node.get_service_names_and_types()))
+    return (tuple(nodes), topics, services), complete
+
+
+def settle_graph(node, max_wait_s: float, quiet_s: float = GRAPH_QUIET_S) -> None:
+    """Spin until discovery has settled: MIN_DISCOVERY_S passed, the graph unchanged
+    (:func:`graph_snapshot`) for ``quiet_s`` or GRAPH_QUIET_SHARE of the time until its last
+    change, whichever is longer, and complete (or incomplete for longer than
+    INCOMPLETE_NODE_S); at most ``max_wait_s``. A fixed wait either wastes time or cuts
+    discovery short (a 1 s wait listed 2, 15 and 23 of 29 topics on a loaded machine)."""
+    start = time.monotonic()
+    end = start + max_wait_s
+    last, changed, incomplete_since = None, start, None
+    while rclpy.ok():
+        now = time.monotonic()
+        current, complete = graph_snapshot(node)
+        if complete:
+            incomplete_since = None
+        elif incomplete_since is None:
+            incomplete_since = now
+        waiting_for_endpoints = incomplete_since is not None and now - incomplete_since < INCOMPLETE_NODE_S
+        if current != last or waiting_for_endpoints:
+            last, changed = current, now
+        elif now - start >= MIN_DISCOVERY_S and now - changed >= max(quiet_s, GRAPH_QUIET_SHARE * (changed - start)):
+            return
+        if now >= end:
+            return
+        rclpy.spin_once(node, timeout_sec=min(0.1, max(end - now, 0.0)))
+
+
+def hidden(name: str) -> bool:
+    """A hidden topic or service (a name part starting with '_', e.g. an action's
+    ``_action/...`` internals), as ros2cli hides them unless --include-hidden."""
+    return any(part.startswith("_") for part in name.split("/"))
+
+
 def spin_until(node, condition, timeout_s: float, what: str):
     """Spin until ``condition()`` is truthy; VerbError (2) after ``timeout_s``."""
     end = time.monotonic() + timeout_s

@@ -1,10 +1,13 @@
-"""``hexctl node list|info``: the nodes of the graph and what each one offers."""
+"""``hexctl node list|info``: the nodes of the graph and what each one offers. Both wait
+until discovery has settled (:func:`~hex_control.nodes.ros_cli.common.settle_graph`);
+info hides the hidden topics and services (an action's ``_action/...`` internals) unless
+``include_hidden``, as ``ros2 node info`` does."""
 
 from __future__ import annotations
 
 from rclpy.action import get_action_client_names_and_types_by_node, get_action_server_names_and_types_by_node
 
-from hex_control.nodes.ros_cli.common import VerbError, cli_node, spin_for
+from hex_control.nodes.ros_cli.common import VerbError, cli_node, hidden, settle_graph
 
 
 def _nodes(node) -> list[str]:
@@ -14,17 +17,19 @@ def _nodes(node) -> list[str]:
 
 def node_list(wait_s: float) -> int:
     with cli_node("hexctl_node_list") as node:
-        spin_for(node, wait_s)  # let discovery fill the graph
+        settle_graph(node, wait_s)
         for name in _nodes(node):
             print(name)
     return 0
 
 
-def node_info(name: str, wait_s: float) -> int:
+def node_info(name: str, wait_s: float, include_hidden: bool = False) -> int:
+    if not name.startswith("/"):
+        name = "/" + name
     with cli_node("hexctl_node_info") as node:
-        spin_for(node, wait_s)
+        settle_graph(node, wait_s)
         if name not in _nodes(node):
-            raise VerbError(f"no node {name!r} in the graph (hexctl node list)")
+            raise VerbError(f"unknown node {name} (hexctl node list)")
         namespace, _, base = name.rpartition("/")
         namespace = namespace or "/"
         sections = (("Subscribers", node.get_subscriber_names_and_types_by_node(base, namespace)),
@@ -37,5 +42,6 @@ def node_info(name: str, wait_s: float) -> int:
         for title, entries in sections:
             print(f"  {title}:")
             for topic, types in sorted(entries):
-                print(f"    {topic}: {', '.join(types)}")
+                if include_hidden or not hidden(topic):
+                    print(f"    {topic}: {', '.join(types)}")
     return 0

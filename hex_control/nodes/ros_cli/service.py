@@ -10,17 +10,22 @@ from hex_control.nodes.messages import to_primitive
 from hex_control.nodes.ros_cli.common import (
     absolute,
     cli_node,
+    hidden,
     interface_message,
-    spin_for,
+    settle_graph,
     spin_until,
 )
 from hex_control.nodes.ros_cli.param import answer
 
 
-def service_list(show_types: bool, wait_s: float) -> int:
+def service_list(show_types: bool, wait_s: float, include_hidden: bool = False) -> int:
+    """Every service, once discovery has settled; an action's ``_action/...`` ones with
+    ``include_hidden``."""
     with cli_node("hexctl_service_list") as node:
-        spin_for(node, wait_s)
+        settle_graph(node, wait_s)
         for name, types in sorted(node.get_service_names_and_types()):
+            if hidden(name) and not include_hidden:
+                continue
             print(f"{name} [{', '.join(types)}]" if show_types else name)
     return 0
 
