@@ -125,6 +125,39 @@ def test_a_waiting_command_is_never_dropped_silently():
     assert all(session.in_hand(_request(pass_index=k)) for k in (0, 1, 2))
 
 
+def test_a_stop_is_never_planned_and_ends_the_pass_not_yet_published():
+    """Issue 37 item 7: a cancelled job sends the pass in flight again with ``stop``. A stop
+    never starts a plan (a restarted planner that never saw the pass must not plan it); a
+    pass of its key that waits, is being planned or is being checked ends as stopped (once);
+    one already published is left to the force controller."""
+    stop = dataclasses.replace(_request(), stop=True)
+    fresh = PassSession(CONFIG)
+    fresh.on_scan(_scan())
+    assert not fresh.in_hand(stop) and fresh.on_command(stop, 0.0) == [] and fresh.next_to_plan() is None
+    waiting = PassSession(CONFIG)
+    waiting.on_command(_request(), 0.0)
+    [verdict] = waiting.on_command(stop, 0.0)
+    assert verdict.refused and verdict.counter == "rejected_stopped" and "stopped: job 'job-a' ended" in verdict.reason
+    waiting.on_scan(_scan())
+    assert waiting.next_to_plan() is None and waiting.in_hand(stop) and waiting.in_hand(_request())
+    planning = PassSession(CONFIG)
+    planning.on_command(_request(), 0.0)
+    planning.on_scan(_scan())
+    ready = planning.next_to_plan()
+    assert not planning.in_hand(stop) and planning.on_command(stop, 0.0) == []
+    assert planning.in_hand(stop)  # a second delivery of the stop is a re-delivery
+    verdict = planning.planned(planning.plan(*ready), 0.0)
+    assert verdict.refused and verdict.counter == "rejected_stopped"
+    assert "while pass 0 was being planned" in verdict.reason
+    checking = PassSession(CONFIG, check_reach=True)
+    _plan(checking, _request(), _scan())
+    [verdict] = checking.on_command(stop, 0.0)
+    assert verdict.refused and checking.checking is None
+    published = PassSession(CONFIG)
+    assert not _plan(published, _request(), _scan()).refused
+    assert published.in_hand(stop)  # answered: nothing more to do
+
+
 def test_a_command_without_its_contour_is_refused_after_contour_wait_s():
     session = PassSession(CONFIG, contour_wait_s=1.0)
     session.on_scan(_scan())

@@ -9,7 +9,9 @@ after k passes (the same job, or a contour without a job id). One command waits 
 contour at a time: of two, the one for an earlier pass of the same job is refused as
 superseded, so every command ends exactly once (planned or refused). A command already
 answered or in hand (a latched re-delivery, the sequence planner sending it again) is
-ignored. A command whose contour has not come within ``contour_wait_s`` is refused.
+ignored. A command whose contour has not come within ``contour_wait_s`` is refused. A
+stop (the job ended with that pass in flight) is never planned: a pass of that key not yet
+published is refused as stopped, and nothing else happens (the force controller retracts).
 
 Part-safety invariant (issue 37 item 1), whatever the command says:
 - the command is checked against the scan it is planned on: feed within [feed_min,
@@ -56,6 +58,7 @@ class PassRequest:
     feed_mm_s: float
     specific_energy_j_mm3: float = 0.0
     normal_force_n: float = 0.0
+    stop: bool = False  # the job ended with this pass in flight: never plan it (the controller retracts)
 
     @property
     def key(self) -> tuple[str, int]:
@@ -167,19 +170,39 @@ class PassSession:
         self.planning: PassRequest | None = None
         self.checking: tuple[PassRequest, PlannedPass, float] | None = None  # (command, plan, since s)
         self.answered: set[tuple[str, int]] = set()
+        self.stopped: set[tuple[str, int]] = set()  # stopped while being planned
 
     # -- inputs --------------------------------------------------------------------------
     def on_scan(self, scan: Scan) -> None:
         self.scan = scan
 
     def in_hand(self, request: PassRequest) -> bool:
-        """Answered already, or waiting, being planned or being checked: a re-delivery."""
+        """Answered already, or waiting, being planned or being checked: a re-delivery (a stop
+        only once answered, or stopped already while being planned)."""
         held = [self.pending, self.planning, self.checking[0] if self.checking else None]
+        if request.stop:
+            return request.key in self.answered or request.key in self.stopped
         return request.key in self.answered or any(r is not None and r.key == request.key for r in held)
+
+    def on_stop(self, request: PassRequest) -> list[Verdict]:
+        """A stop: the pass of its key, if waiting or being checked, ends here as stopped
+        (returned); one being planned ends so when its plan comes; any other is left alone."""
+        reason = f"stopped: job {request.job_id!r} ended before pass {request.pass_index} was planned"
+        if self.pending is not None and self.pending.key == request.key:
+            self.pending = None
+            return [self._refuse(request, reason, "stopped")]
+        if self.checking is not None and self.checking[0].key == request.key:
+            self.checking = None
+            return [self._refuse(request, reason, "stopped")]
+        if self.planning is not None and self.planning.key == request.key:
+            self.stopped.add(request.key)
+        return []
 
     def on_command(self, request: PassRequest, now_s: float) -> list[Verdict]:
         """A new command (not :meth:`in_hand`): it waits for its contour; of two waiting, the
-        older ends here as superseded (returned)."""
+        older ends here as superseded (returned). A stop goes to :meth:`on_stop`."""
+        if request.stop:
+            return self.on_stop(request)
         refused = []
         if self.pending is not None:  # one command waits for its contour at a time
             older, newer = (self.pending, request) if request.supersedes(self.pending) else (request, self.pending)
@@ -297,6 +320,10 @@ class PassSession:
         """The plan of the command being planned: a Verdict (planned or refused), or None
         while its path waits for the reachability check."""
         request, self.planning = self.planning, None
+        if request.key in self.stopped:
+            self.stopped.discard(request.key)
+            return self._refuse(request, f"stopped: job {request.job_id!r} ended while pass {request.pass_index} "
+                                         "was being planned", "stopped")
         if isinstance(outcome, Verdict):
             return self._answer(outcome)
         if self.check_reach:

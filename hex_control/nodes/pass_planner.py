@@ -4,10 +4,9 @@ checks against the scan and the parent, the refusals -- is the core
 :class:`hex_control.grinding.pass_session.PassSession`; this node converts messages, plans
 on a worker thread, asks TestPose (``reachability_service``; '' = none) and publishes.
 
-In:  /grinding/pass_command (from ``command_owner``), /grinding/contour (``contour_owner``).
-Out: /grinding/force_trajectory, /motion/tool_path_raw (the whole path), ~/status (per
-command: OK "received", then OK/WARN + summary or ERROR + why), /grinding/pass_result
-(REJECTED + why), /diagnostics (``redelivered`` commands, ``foreign_*``, ``rejected_*``).
+In: /grinding/pass_command (``command_owner``'s), /grinding/contour (``contour_owner``'s). Out:
+/grinding/force_trajectory, /motion/tool_path_raw, ~/status (per command: OK "received", then
+OK/WARN + summary or ERROR + why), /grinding/pass_result (REJECTED + why), /diagnostics.
 """
 
 from __future__ import annotations
@@ -41,8 +40,7 @@ PARAMETERS = {
     "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the start "
                           "of the pass's path (s): the planning time charged between passes", 0.0, 60.0,
                           read_only=False),
-    "reachability_service": Spec("kinematics/test_pose", "TestPose service for the path of every pass; "
-                                 "'' = no check"),
+    "reachability_service": Spec("kinematics/test_pose", "TestPose service for every pass's path; '' = none"),
     "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
     "command_owner": Spec("sequence_planner", "node whose PassCommands are planned (relative to the namespace); "
                           "'' = the first heard (hand use)"),
@@ -63,8 +61,7 @@ class PassPlannerNode(Node):
         self.core = PassSession(self.config, self.get_parameter("contour_wait_s").value, bool(service))
         self.diagnostics = Diagnostics(self)
         self.planning = None  # the worker's future
-        self.reach = None  # the pending TestPose future
-        self.reach_sent_at = 0.0  # when it went out (wall s)
+        self.reach, self.reach_sent_at = None, 0.0  # the pending TestPose future, when it went out (wall s)
         self.reach_client = self.create_client(TestPose, service) if service else None
         self.trajectory_pub = self.create_publisher(ForceTrajectory, "grinding/force_trajectory", ifc.LATCHED)
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", ifc.LATCHED)
@@ -76,7 +73,6 @@ class PassPlannerNode(Node):
                           "contour", self.get_parameter("contour_owner").value)
         wall_timer(self, 0.02, self._poll)
 
-    # -- inputs --------------------------------------------------------------------------
     def _on_contour(self, msg: ContourMsg) -> None:
         try:
             contour, error = ifc.contour_from_message(msg), ""
@@ -89,16 +85,21 @@ class PassPlannerNode(Node):
 
     def _on_command(self, msg: PassCommand) -> None:
         request = PassRequest(msg.job_id, int(msg.pass_index), float(msg.cut_depth_mm), float(msg.feed_speed_mm_s),
-                              float(msg.specific_energy_j_mm3), float(msg.normal_force_n))
+                              float(msg.specific_energy_j_mm3), float(msg.normal_force_n), bool(msg.stop))
         if self.core.in_hand(request):
             self.diagnostics.count("redelivered")  # latched, or the sequence planner sending it again
             return
-        self.diagnostics.count("commands")
-        self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: cut {msg.cut_depth_mm:.4f} mm "
-                               f"at {msg.feed_speed_mm_s:.2f} mm/s, K1 {msg.specific_energy_j_mm3:g} J/mm^3")
-        self._status(request, DiagnosticStatus.OK, "received", {})  # the sequence planner's acknowledgement
+        self.diagnostics.count("stops" if request.stop else "commands")
+        self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: " + ("stop" if request.stop else
+                               f"cut {msg.cut_depth_mm:.4f} mm at {msg.feed_speed_mm_s:.2f} mm/s, "
+                               f"K1 {msg.specific_energy_j_mm3:g} J/mm^3"))
+        if not request.stop:
+            self._status(request, DiagnosticStatus.OK, "received", {})  # the sequence planner's acknowledgement
         for verdict in self.core.on_command(request, time.monotonic()):  # a transport wait: wall time
             self._end(verdict)
+        if self.core.checking is None and self.reach is not None:  # its pass was stopped
+            self.reach_client.remove_pending_request(self.reach)
+            self.reach = None
         self._try_plan()
 
     def _try_plan(self) -> None:
@@ -142,7 +143,6 @@ class PassPlannerNode(Node):
                      for x, y, z in checked_positions(self.core.checking[1].path)]
             self.reach, self.reach_sent_at = self.reach_client.call_async(TestPose.Request(poses=poses)), now
 
-    # -- outputs -------------------------------------------------------------------------
     def _end(self, verdict: Verdict | None) -> None:
         if verdict is None:
             return
