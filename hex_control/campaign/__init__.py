@@ -25,6 +25,7 @@ import math
 import os
 import socket
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -98,17 +99,23 @@ def run_one(fn, job: Job) -> Outcome:
 
 
 class Progress:
-    """Jobs done / failed and the ETA, as a bar on stderr (tqdm); ``note`` prints a line on
-    stdout above it. ``enabled=False``: silent (tests)."""
+    """Jobs done / failed and the ETA, as a bar on stderr (tqdm), redrawn every
+    ``refresh_s`` (a job takes minutes: the elapsed time moves between them); ``note``
+    prints a line on stdout above it. ``enabled=False``: silent (tests)."""
 
-    def __init__(self, total: int, enabled: bool = True, stream=None):
+    def __init__(self, total: int, enabled: bool = True, stream=None, refresh_s: float = 1.0):
         self.total, self.done, self.failed = total, 0, 0
-        self.bar = None
+        self.bar, self._stop = None, threading.Event()
         if enabled:
             from tqdm import tqdm
 
             self.bar = tqdm(total=total, desc=self._counts(), unit="job", file=stream or sys.stderr,
                             dynamic_ncols=True, bar_format="{desc} |{bar}| {elapsed} < ETA {remaining}")
+            threading.Thread(target=self._redraw, args=(refresh_s,), daemon=True, name="progress").start()
+
+    def _redraw(self, refresh_s: float) -> None:
+        while not self._stop.wait(refresh_s):
+            self.bar.refresh()
 
     def update(self, outcome: Outcome) -> None:
         self.done += outcome.ok
@@ -125,6 +132,7 @@ class Progress:
             self.bar.write(text, file=sys.stdout)
 
     def close(self) -> None:
+        self._stop.set()
         if self.bar is not None:
             self.bar.close()
 
