@@ -101,8 +101,8 @@ def test_a_message_of_an_unnamed_publisher_waits_for_its_name_and_keeps_its_orde
     assert gate.offer(b"late", "m2", 0.1) == ([], 0) and gate.waiting == 2
     assert gate.retry(0.2) == ([], 0)  # still unnamed
     graph.nodes[b"late"] = "/plant"
-    assert gate.retry(0.3) == (["m1", "m2"], 0) and gate.waiting == 0
-    assert gate.offer(b"late", "m3", 0.4) == (["m3"], 0)
+    assert gate.retry(0.3) == ([(b"late", "m1"), (b"late", "m2")], 0) and gate.waiting == 0
+    assert gate.offer(b"late", "m3", 0.4) == ([(b"late", "m3")], 0)
 
 
 def test_an_unnamed_or_foreign_publisher_is_refused_in_the_end_and_a_flood_is_bounded():

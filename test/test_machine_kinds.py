@@ -124,7 +124,7 @@ def test_a_third_machine_kind_needs_only_its_module_and_yaml(stage_file):
     locator and the plant's drive, limits and reset-time measurement, with no code that
     knows the kind."""
     from hex_control.grinding.config import load_pass_planner_config
-    from hex_control.nodes.kinematics import KinematicsCore
+    from hex_control.kinematics.service import KinematicsCore
     from hex_control.plant.drives import make_drive
     from hex_control.plant.limits import StrutRateLimiter
     from hex_control.plant.reset_time import measure_reset_time
@@ -135,10 +135,10 @@ def test_a_third_machine_kind_needs_only_its_module_and_yaml(stage_file):
     assert isinstance(stage, CartesianStage) and stage.name == "toy_stage"
     core = KinematicsCore(stage, document)
     poses = np.array([[10.0, -20.0, 200.0, 0, 0, 0], [10.0, -20.0, 900.0, 0, 0, 0], [0.0, 0.0, 200.0, 0.1, 0, 0]])
-    reports = core.reports(poses)
-    assert [r.reachable for r in reports] == [True, False, False]
-    assert reports[1].strut_length_margin_mm == pytest.approx(-400.0) and not reports[2].platform_joints_ok
-    assert list(reports[0].strut_lengths_mm) == [10.0, -20.0, 200.0]
+    check = core.inverse(poses).check
+    assert check.reachable.tolist() == [True, False, False]
+    assert check.margins[1, 0] == pytest.approx(-400.0) and not check.satisfied[2, 1]
+    assert check.positions_mm[0].tolist() == [10.0, -20.0, 200.0]
     pose, _, residual = stage.forward_pose([10.0, -20.0, 200.0], np.zeros(6))
     np.testing.assert_allclose(pose, poses[0])
     assert residual == 0.0
@@ -173,7 +173,7 @@ def test_the_plant_node_runs_a_third_machine_kind(ros, stage_file):
 
     ros.add(PlantNode(context=ros.context, parameter_overrides=[
         Parameter("machine_file", value=str(stage_file)), Parameter("mode", value="realtime"),
-        Parameter("grinding", value=False)]))
+        Parameter("grinding", value=False), Parameter("strut_command_owner", value="stage_operator")]))
     states = ros.collect(JointState, "/plant/strut_states", 1000)
     commands = ros.node("stage_operator").create_publisher(JointState, "/plant/strut_command", 10)
     wait_until(lambda: commands.get_subscription_count() >= 1, 15.0, what="the plant")

@@ -58,12 +58,15 @@ class LostMessages:
 
 
 def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, name: str,
-                      owner_node: str | tuple[str, ...] | None = None) -> CommandOwner | None:
+                      owner_node: str | tuple[str, ...] | None = None,
+                      with_source: bool = False) -> CommandOwner | None:
     """Subscribe ``callback(msg)`` to ``topic``, counting lost messages in ``diagnostics``.
 
     ``owner_node``: None = every publisher; '' = the first publisher heard (hand use);
     otherwise the node name(s) whose publishers alone are obeyed, relative names (``plant``)
-    resolved in this node's namespace, several as a tuple or comma-separated. Returns the
+    resolved in this node's namespace, several as a tuple or comma-separated.
+    ``with_source`` (with owners): ``callback(msg, source)``, source the sender's node name,
+    relative to this node's namespace when inside it (``pass_planner``). Returns the
     CommandOwner, or None without one."""
 
     def endpoints():
@@ -76,6 +79,8 @@ def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, na
         return info.node_namespace.rstrip("/") + "/" + info.node_name
 
     owners = resolve_owner_nodes(owner_node, node.get_namespace())
+    if with_source and owners is None:
+        raise ValueError(f"{topic}: the source of a message is known only with owners")
     owner = None if owners is None else CommandOwner(node_of, lambda gid: gid in endpoints(), owners)
     gate = None if owner is None else OwnedInput(owner)
     gaps = LostMessages()
@@ -87,8 +92,16 @@ def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, na
             obeyed = ", ".join(owner.owner_nodes) or owner.owner_node or "the first publisher"
             diagnostics.fault(f"foreign_{name}", f"{name} from {sender} refused (obeys {obeyed})",
                               hold_s=FOREIGN_WARN_S)
-        for msg in deliver:
-            callback(msg)
+        for gid, msg in deliver:
+            if with_source:
+                callback(msg, source(gid))
+            else:
+                callback(msg)
+
+    def source(gid: bytes) -> str | None:
+        full = owner.node_name(gid)
+        base = node.get_namespace().rstrip("/") + "/"
+        return full[len(base):] if full is not None and full.startswith(base) else full
 
     def on_message(msg, info):
         publisher = info.get("publisher_gid")

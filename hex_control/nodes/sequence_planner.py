@@ -83,8 +83,8 @@ class SequencePlannerNode(Node):
         # the publisher of a result is not handed to the callback: a REJECTED one is confirmed
         # by the pass planner's refusal on its status instead (source None)
         for msg_type, topic, on, qos, name, owner in (
-                (PassResult, "grinding/pass_result", lambda m: core.on_result(_report(m), None, now()), RESULTS,
-                 "result", ("plant", "pass_planner")),
+                (PassResult, "grinding/pass_result", lambda m, source: core.on_result(_report(m), source, now()),
+                 RESULTS, "result", ("plant", "pass_planner")),
                 (Contour, "grinding/contour", lambda m: core.on_scan(
                     m.job_id, m.pass_index, m.x_mm, m.z_mm, m.parent_mm, m.bead_width_mm, _ns(m.header.stamp),
                     now()), LATCHED, "contour", "plant"),
@@ -95,8 +95,8 @@ class SequencePlannerNode(Node):
                 (ForceTrajectory, "grinding/force_trajectory", lambda m: core.on_trajectory(
                     m.job_id, m.pass_index, m.normal_force_n, m.planned_cut_depth_mm), LATCHED, "trajectory",
                  "pass_planner")):
-            info_subscription(self, msg_type, topic, lambda m, on=on: self._do(on(m)), qos, self.diagnostics, name,
-                              owner_node=owner)
+            info_subscription(self, msg_type, topic, lambda *m, on=on: self._do(on(*m)), qos, self.diagnostics,
+                              name, owner_node=owner, with_source=msg_type is PassResult)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=self._on_goal, handle_accepted_callback=lambda handle: self._do(
                                        self.core.accept(_goal(handle.request), handle, now())),

@@ -98,6 +98,10 @@ class CommandOwner:
         self.last_refused = node
         return Verdict.UNKNOWN if node is None else Verdict.REFUSE
 
+    def node_name(self, gid: bytes) -> Optional[str]:
+        """The fully qualified node name of a publisher, None while discovery has not told it."""
+        return self._name(gid)
+
     def admit(self, gid: bytes) -> bool:
         """True only for an admitted publisher (an unnamed one is not, yet)."""
         return self.verdict(gid) is Verdict.ADMIT
@@ -126,8 +130,8 @@ class OwnedInput:
     and those of a publisher not yet named by discovery wait (at most ``hold_s`` of the
     caller's clock, ``depth`` of them per publisher, ``publishers`` publishers) until it is.
 
-    ``offer`` and ``retry`` return the messages to deliver now and how many were refused
-    (a message pushed out of a full wait is refused too: it was never admitted)."""
+    ``offer`` and ``retry`` return the ``(gid, message)`` pairs to deliver now and how many
+    were refused (a message pushed out of a full wait is refused too: it was never admitted)."""
 
     def __init__(self, owner: CommandOwner, hold_s: float = 5.0, depth: int = 16, publishers: int = 8):
         if hold_s <= 0 or depth < 1 or publishers < 1:
@@ -144,7 +148,7 @@ class OwnedInput:
         since, held = self._waiting.pop(gid, (now_s, []))
         held.append(message)
         if verdict is Verdict.ADMIT:
-            return held, 0
+            return [(gid, m) for m in held], 0
         if verdict is Verdict.REFUSE:
             return [], len(held)
         refused = max(0, len(held) - self.depth)
@@ -162,7 +166,7 @@ class OwnedInput:
                 continue
             del self._waiting[gid]
             if verdict is Verdict.ADMIT:
-                deliver.extend(held)
+                deliver.extend((gid, m) for m in held)
             else:
                 refused += len(held)
         return deliver, refused
