@@ -72,7 +72,7 @@ def test_a_command_waits_for_its_contour_and_is_planned_on_it_as_before():
     ready = session.next_to_plan()
     assert ready == (request, scan) and session.next_to_plan() is None  # being planned
     verdict = session.planned(session.plan(*ready), 0.0)
-    assert not verdict.refused and verdict.counter == "planned" and verdict.reason == ""
+    assert not verdict.refused and verdict.counter == "planned" and verdict.reason == "" and verdict.fault is None
     planned = verdict.planned
     reference = _direct(BEAD, 0.1, 5.0, 15.0)  # the command's K1, bit for bit as the node planned it
     for name in ("time_s", "centre_x_mm", "height_mm", "force_n"):
@@ -201,6 +201,7 @@ def test_a_command_without_its_contour_is_refused_after_contour_wait_s():
 def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(request_, scan, reason):
     verdict = _plan(PassSession(CONFIG), request_, scan)
     assert verdict.refused and verdict.counter == "rejected_unplannable" and reason in verdict.reason
+    assert verdict.fault == ("refused", f"pass 0 of job 'job-a' refused: {verdict.reason}")  # WARN, says why
 
 
 def test_a_plan_is_refused_or_published_on_the_reachability_answer():
@@ -242,6 +243,7 @@ def test_a_forged_deep_command_is_capped_to_the_material_left_and_cuts_nothing_b
     plan = verdict.planned.plan
     assert plan.planned_depth_mm <= left * (1 + 1e-9)
     assert f"cut depth capped from 2.0000 mm to the {left:.4f} mm left over the parent" in verdict.reason
+    assert verdict.fault[0] == "part_safety" and "cut depth capped from 2.0000 mm" in verdict.fault[1]
     values = verdict.planned.values
     assert values["requested_cut_depth_mm"] == 2.0 and values["material_left_mm"] == pytest.approx(left)
     assert values["planned_cut_depth_mm"] == plan.planned_depth_mm

@@ -91,7 +91,8 @@ class Scan:
 @dataclass(frozen=True)
 class PlannedPass:
     """A plan ready to publish: the force plan, the tool path, the process it was planned
-    with, the scan's plant time (s), and its status (level 'ok' or 'warn', message, values)."""
+    with, the scan's plant time (s), its status message (the note: '' = planned as asked) and
+    values, and what the part-safety checks changed ('' = nothing)."""
 
     plan: ForcePlan
     path: ToolPath
@@ -99,17 +100,21 @@ class PlannedPass:
     contour_s: float
     note: str
     values: dict
+    safety: str = ""
 
 
 @dataclass(frozen=True)
 class Verdict:
-    """How a command ended: ``planned`` (None if refused), the reason or the plan's note, and
-    the diagnostics counter to add (``planned`` or ``rejected_<kind>``)."""
+    """How a command ended: ``planned`` (None if refused), the reason or the plan's note, the
+    diagnostics counter to add (``planned`` or ``rejected_<kind>``), and a diagnostics fault to
+    raise for a while, (name, message), if the command was refused or changed for the part's
+    safety (None otherwise)."""
 
     request: PassRequest
     planned: PlannedPass | None
     reason: str
     counter: str
+    fault: tuple[str, str] | None = None
 
     @property
     def refused(self) -> bool:
@@ -117,7 +122,14 @@ class Verdict:
 
 
 def refusal(request: PassRequest, reason: str, kind: str) -> Verdict:
-    return Verdict(request, None, reason, f"rejected_{kind}")
+    return Verdict(request, None, reason, f"rejected_{kind}",
+                   ("refused", f"pass {request.pass_index} of job {request.job_id!r} refused: {reason}"))
+
+
+def accepted(request: PassRequest, planned: PlannedPass) -> Verdict:
+    fault = ("part_safety", f"pass {request.pass_index} of job {request.job_id!r}: {planned.safety}") \
+        if planned.safety else None
+    return Verdict(request, planned, planned.note, "planned", fault)
 
 
 def material_left_mm(contour: Contour) -> float:
@@ -289,7 +301,7 @@ class PassSession:
                   "specific_energy_j_mm3": process.specific_energy_j_mm3, "simulations": plan.simulations,
                   "requested_cut_depth_mm": request.cut_depth_mm, "material_left_mm": left,
                   "shape_raised_mm": raised}
-        return PlannedPass(plan, path, process, scan.stamp_s, note, values)
+        return PlannedPass(plan, path, process, scan.stamp_s, note, values, "; ".join(notes))
 
     def _plan_above_parent(self, contour: Contour, model, depth: float, feed: float, notes: list):
         """The plan, and how far (mm) its desired shape had to be raised over the parent so
@@ -329,7 +341,7 @@ class PassSession:
         if self.check_reach:
             self.checking = (request, outcome, now_s)
             return None
-        return self._answer(Verdict(request, outcome, outcome.note, "planned"))
+        return self._answer(accepted(request, outcome))
 
     def reach_overdue(self, now_s: float) -> bool:
         return self.checking is not None and now_s - self.checking[2] > self.contour_wait_s
@@ -342,7 +354,7 @@ class PassSession:
             x, y, z = checked_positions(planned.path)[first_unreachable_index]
             return self._refuse(request, f"path pose ({x:.1f}, {y:.1f}, {z:.1f}) mm (machine frame) is out of the "
                                          "machine's reach", "unreachable")
-        return self._answer(Verdict(request, planned, planned.note, "planned"))
+        return self._answer(accepted(request, planned))
 
     def reach_failed(self, reason: str) -> Verdict:
         request, self.checking = self.checking[0], None

@@ -32,14 +32,14 @@ from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolP
 from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
+FAULT_HOLD_S = 10.0  # a refusal or a part-safety change is a WARN this long (wall s)
 
 PARAMETERS = {
     "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),
     "contour_wait_s": Spec(5.0, "wall time a command waits for its contour (or the reachability check for "
                            "its answer) before it is refused", 0.01, 3600.0),
-    "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the start "
-                          "of the pass's path (s): the planning time charged between passes", 0.0, 60.0,
-                          read_only=False),
+    "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the path's "
+                          "start (s): the planning time charged between passes", 0.0, 60.0, read_only=False),
     "reachability_service": Spec("kinematics/test_pose", "TestPose service for every pass's path; '' = none"),
     "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
     "command_owner": Spec("sequence_planner", "node whose PassCommands are planned (relative to the namespace); "
@@ -118,9 +118,8 @@ class PassPlannerNode(Node):
             self._check_reach()
 
     def _check_reach(self) -> None:
-        """TestPose on the path being checked: sent when the service is ready, sent again after
-        RESEND_S (Fast DDS drops a response to a client it has not matched yet), given up
-        after contour_wait_s."""
+        """TestPose on the path being checked: sent when the service is ready, again after RESEND_S
+        (Fast DDS drops a response to a client it has not matched yet); given up after contour_wait_s."""
         name, now = self.reach_client.srv_name, time.monotonic()
         if self.reach is not None and self.reach.done():
             future, self.reach = self.reach, None
@@ -147,6 +146,8 @@ class PassPlannerNode(Node):
         if verdict is None:
             return
         self.diagnostics.count(verdict.counter)
+        if verdict.fault:
+            self.diagnostics.fault(*verdict.fault, hold_s=FAULT_HOLD_S)
         request = verdict.request
         if verdict.refused:
             self.get_logger().warn(f"pass {request.pass_index} of job {request.job_id!r} refused: {verdict.reason}")
@@ -169,9 +170,8 @@ class PassPlannerNode(Node):
                               path_end_s=float(path.time_s[-1] - path.grind_start_s),
                               time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
                               normal_force_n=plan.force_n.tolist(),
-                              planned_final_contour=ifc.contour_to_message(plan.final, request.job_id,
-                                                                       request.pass_index + 1,
-                                                                       planned.process.bead_width_mm))
+                              planned_final_contour=ifc.contour_to_message(
+                                  plan.final, request.job_id, request.pass_index + 1, planned.process.bead_width_mm))
         msg.header.stamp = ifc.time_msg(start_s + path.grind_start_s)
         msg.header.frame_id = "bead"
         self.trajectory_pub.publish(msg)
