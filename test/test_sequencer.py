@@ -210,6 +210,19 @@ def test_a_force_guarded_plan_lowers_the_force_of_the_passes_after_it(tmp_path):
     assert rig.health.counts["unused_trajectories"] == 1
 
 
+def test_a_plan_capped_to_the_material_left_does_not_lower_the_force(tmp_path):
+    """The pass planner caps a cut deeper than the material left (issue 37 item 1); a plan
+    that removes all that is left says nothing of the force its plans can reach."""
+    rig = Rig(tmp_path)
+    rig.start(bead_height_mm=1.5, deadline_s=120.0)
+    material = rig.commands[0]["material_remaining_mm"]
+    rig.core.command["cut_depth_mm"] = 1.5 * material  # as a policy that overgrinds on purpose would ask
+    rig.do(rig.core.on_trajectory("job", 0, [0.0, 60.0, 40.0], material))
+    assert rig.health.counts["solves"] == 1 and rig.core.model_update.solved_force_max_n == PROCESS.force_max_n
+    rig.do(rig.core.on_trajectory("job", 0, [0.0, 60.0, 40.0], 0.76 * material))  # short of what is left
+    assert rig.health.counts["solves"] == 2
+
+
 def test_a_bead_too_high_for_the_deadline_ends_by_quit_now(tmp_path):
     """3.5 mm of bead in 60 s: beyond the configured material grid (2 mm) and beyond what the
     deadline allows. The grid grows to hold the job, the policy grinds hard and quits with

@@ -626,8 +626,13 @@ class Sequencer:
             return out
         forces = np.asarray(forces_n, float)
         peak = float(np.max(forces)) if forces.size else math.nan  # NaN if any is: refused below
+        # the pass planner caps a cut deeper than the material left (issue 37 item 1): that cap
+        # says nothing of the force its plans can reach
+        commanded_mm = command["cut_depth_mm"]
+        if command["material_remaining_mm"] > 0:
+            commanded_mm = min(commanded_mm, command["material_remaining_mm"])
         try:
-            self.model_update.observe_plan(command["normal_force_n"], command["cut_depth_mm"], planned_cut_mm, peak)
+            self.model_update.observe_plan(command["normal_force_n"], commanded_mm, planned_cut_mm, peak)
         except ValueError as exc:  # a plan with no force, or a command that cuts nothing
             self.health.count("unused_trajectories")
             self.log("debug", f"plan of pass {pass_index} says nothing about the force limit: {exc}")
