@@ -155,10 +155,14 @@ def test_action_send_goal_is_accepted_and_ctrl_c_cancels_it(ros_env, spawn, tmp_
 
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: issue 40: each echo of a latched topic returns within this (s) beyond the start-up of a
-#: hexctl ROS verb -- Python, rclpy, a node -- measured beside it: that alone took 3.4 s at
-#: a load of 25 on this machine's 2 cores, 0.5 s idle
+#: issue 40: an echo of a latched topic returns within this (s) beyond the start-up of a
+#: hexctl ROS verb -- Python, rclpy, a node -- measured beside it (that alone took 3.4 s at
+#: a load of 25 on this machine's 2 cores, 0.3 s idle): in the median ...
 ECHO_BEYOND_START_UP_S = 2.0
+#: ... and every time within one Fast DDS announcement period (3 s) more: a participant
+#: that does not answer this one's start-up announcements is found at its next one (about
+#: 1 of 4 participants here, at any load; ros2cli's echo subscribes from its own node too)
+ECHO_MISSED_ANNOUNCEMENT_S = ECHO_BEYOND_START_UP_S + 3.0
 
 
 def _wall(ros_env, *arguments):
@@ -185,17 +189,21 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env):
         start_ups.append(start_up)
     beyond = [w - s for w, s in zip(walls, start_ups)]
     print("echo wall (s):", [round(w, 2) for w in walls], "start-up (s):", [round(s, 2) for s in start_ups])
-    assert max(beyond) < ECHO_BEYOND_START_UP_S, [round(b, 2) for b in beyond]
-    # --timeout bounds everything: no publisher, or a publisher that never sends, is exit 2 in time
-    for topic, why in (("/cli/nobody_publishes", "no publisher of /cli/nobody_publishes within 1.5 s"),
-                       ("/cli/silent_latched", "no message on /cli/silent_latched within 1.5 s")):
+    assert max(beyond) < ECHO_MISSED_ANNOUNCEMENT_S, [round(b, 2) for b in beyond]
+    assert sorted(beyond)[len(beyond) // 2] < ECHO_BEYOND_START_UP_S, [round(b, 2) for b in beyond]
+    # --timeout bounds everything: no publisher, or a publisher that never sends, is exit 2 in
+    # time (the silent one is given long enough to be discovered, see ECHO_MISSED_ANNOUNCEMENT_S)
+    for topic, bound_s, why in (
+            ("/cli/nobody_publishes", 1.5, "no publisher of /cli/nobody_publishes within 1.5 s (is it running, "
+                                           "with the same ROS_DOMAIN_ID? hexctl topic list)"),
+            ("/cli/silent_latched", 8.0, "no message on /cli/silent_latched within 8 s")):
         if topic == "/cli/silent_latched":
             node.create_publisher(Contour, topic, LATCHED)
             ros.wait_for_match(node, topic, publishers=1)
         start = time.monotonic()
-        silent = hexctl(ros_env, "topic", "echo", topic, "--timeout", "1.5", timeout=60)
+        silent = hexctl(ros_env, "topic", "echo", topic, "--timeout", f"{bound_s:g}", timeout=60)
         assert silent.returncode == 2 and silent.stderr.strip() == f"hexctl: {why}", silent
-        assert time.monotonic() - start < 1.5 + 5.0  # the bound plus start-up, not forever
+        assert bound_s <= time.monotonic() - start < bound_s + 5.0  # the bound plus start-up, not forever
 
 
 def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ros, ros_env, shaper):
