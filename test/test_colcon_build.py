@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: "pip: <name>" in a comment where rosdep has no key. A ROS package's module is its key.
 IMPORT_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
                "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "filterpy": "python3-filterpy-pip",
-               "control": "python-control-pip", "mcap_ros2": "mcap-ros2-support", "mcap": "pip: mcap"}
+               "control": "python-control-pip", "mcap_ros2": "mcap-ros2-support", "mcap": "pip: mcap",
+               "ray": "pip: ray"}
 
 
 def _imported_top_modules() -> set[str]:
