@@ -470,3 +470,36 @@ def test_the_force_controller_node_reads_the_cell_not_the_plant():
     assert defaults["max_force_n"] == cell_value("process.force_max_n") == 60.0
     assert defaults["stiffness_n_per_mm"] == pytest.approx(ForceTableParameters().stiffness_n_mm)
     assert (defaults["contact_mm"], defaults["overload_n"]) == (0.0, 150.0)
+
+
+def test_a_stop_ends_the_pass_in_flight_and_the_force_ramps_to_zero():
+    """Issue 37 item 7: after a cancel the pass already commanded was ground to the end. The
+    sequence planner sends the pass again with ``stop``; the loop drops its trajectory and
+    ramps the command to the retract stop (no watchdog fault: nothing failed), and a
+    trajectory of that pass that comes later is refused."""
+    loop = make_loop(require_pass_command=True)
+    loop.on_pass_command("job", 0)
+    assert pass_trajectory(loop, start_s=0.5, length_s=10.0).accepted
+    plant = LockStep(loop)
+    plant.run_until(2.0)
+    assert plant.at(2.0)[1] == pytest.approx(20.0, abs=1.0)
+    assert loop.on_pass_command("job", 1, stop=True) is None and loop.trajectory is not None  # not this pass
+    loop.on_pass_command("job", 0, stop=True)
+    assert loop.trajectory is None and loop.report.counters["passes_stopped"] == 1
+    plant.run_until(3.0)
+    assert plant.at(2.6) == (-2.0, 0.0)  # the whole range in ramp_down_s (0.5 s)
+    assert "watchdog" not in loop.report.faults and loop.report.counters["watchdog_trips"] == 0
+    late = pass_trajectory(loop, start_s=3.5)
+    assert not late.accepted and "stopped" in late.reason
+
+
+def test_the_end_of_a_pass_is_not_a_watchdog_fault():
+    """Issue 40 item 6: the controller stayed at WARN 'stale setpoint' after every normal job."""
+    loop = make_loop()
+    assert pass_trajectory(loop, start_s=0.5, length_s=1.0).accepted
+    plant = LockStep(loop)
+    plant.run_until(2.5)
+    assert plant.at(1.4)[1] == pytest.approx(20.0, abs=1.0)
+    assert plant.at(2.1) == (-2.0, 0.0)  # over at 1.5 s, ramped down in 0.5 s
+    assert loop.report.counters["watchdog_trips"] == 0
+    assert "watchdog" not in loop.report.faults and loop.report.state == "idle"

@@ -221,6 +221,7 @@ class ForceLoop:
         self.pass_command: tuple[str, int] | None = None  # (job id, pass index) of the latest accepted
         self.waiting: Trajectory | None = None  # the planner's trajectory that came before its command
         self.backed_off: tuple[str, int] | None = None  # after an overload: the pass it happened in
+        self.stopped: tuple[str, int] | None = None  # the latest pass a stop ended
         self.overforce_s = 0.0  # how long the measured force has been above overforce_ratio x max_force_n
         self.overforce_ns: int | None = None  # when it last was, and the peak then (N)
         self.overforce_peak_n = 0.0
@@ -244,9 +245,22 @@ class ForceLoop:
         self.notice(f"malformed {what} rejected")
         return Verdict(False, f"malformed {what}")
 
-    def on_pass_command(self, job_id: str, pass_index: int) -> Trajectory | None:
-        """The latest accepted pass command; the trajectory it lets through, if one waited."""
-        self.pass_command = (job_id, int(pass_index))
+    def on_pass_command(self, job_id: str, pass_index: int, stop: bool = False) -> Trajectory | None:
+        """The latest accepted pass command; the trajectory it lets through, if one waited.
+        ``stop`` (the job was cancelled or ended with this pass in flight): its trajectory is
+        dropped, held or waiting, and the force ramps to zero as at a pass's end; a
+        trajectory of that pass that comes later is refused."""
+        key = (job_id, int(pass_index))
+        if stop:
+            if self.trajectory is not None and self.trajectory.key == key:
+                self.trajectory, self.tripped, self.saturated_s = None, True, 0.0  # ramp down, no watchdog fault
+                self.report.count("passes_stopped")
+                self.notice(f"{job_id} pass {pass_index} stopped: retracting")
+            if self.waiting is not None and self.waiting.key == key:
+                self.waiting = None
+            self.stopped = key
+            return None
+        self.pass_command = key
         if self.waiting is not None and self.waiting.key == self.pass_command:
             waiting, self.waiting = self.waiting, None
             return waiting if self._adopt(waiting).accepted else None
@@ -270,6 +284,9 @@ class ForceLoop:
         return self._adopt(trajectory)
 
     def _adopt(self, trajectory: Trajectory) -> Verdict:
+        if trajectory.key == self.stopped:
+            return self._refuse("refused_trajectory", "trajectory", f"force trajectory of {trajectory.job_id} pass "
+                                f"{trajectory.pass_index} refused: that pass was stopped", REFUSAL_WARN_S)
         if self.backed_off is not None and trajectory.key == self.backed_off:
             return self._refuse("refused_trajectory", "trajectory", f"force trajectory of {trajectory.job_id} pass "
                                 f"{trajectory.pass_index} refused: it overloaded; retracted until the next pass")
@@ -434,6 +451,11 @@ class ForceLoop:
             self.law.hold(self.command_mm)
             return self._send(now_ns)
         elapsed = self._elapsed_s(now_ns)
+        if elapsed is not None and elapsed > self.trajectory.times_s[-1] and not self.tripped:
+            # the pass is over: the force ramps to zero as after a watchdog trip, but this is
+            # the plan's end, not a fault (the node stays OK between passes)
+            self.tripped, self.saturated_s = True, 0.0
+            self.report.state = "idle"
         if elapsed is not None and elapsed < 0 and fresh_measurement:
             # a pass is coming: touch down in time; the loop starts bumplessly from there
             self.tripped = True

@@ -155,7 +155,7 @@ class ForceControllerNode(Node):
         return self.get_clock().now().nanoseconds
 
     def _on_pass_command(self, msg: PassCommand) -> None:
-        adopted = self.loop.on_pass_command(msg.job_id, msg.pass_index)
+        adopted = self.loop.on_pass_command(msg.job_id, msg.pass_index, msg.stop)
         if adopted is not None:
             self._publish_status(adopted)
 
