@@ -18,6 +18,7 @@ import math
 import os
 import signal
 import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,7 @@ from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.nodes.action_probe import ResponseProbe
 from hex_control.nodes.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges, validated_namespace
 from hex_control.nodes.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
+from hex_control.nodes.message_info import info_subscription
 from hex_control.nodes.messages import to_primitive
 from hex_control.nodes.recorder import Recorder
 from hex_control.recording.bag import BagWriter
@@ -52,6 +54,22 @@ def name_of(names: tuple[str, ...], value: int) -> str:
     return names[value] if 0 <= value < len(names) else f"status {value}"
 
 
+KEPT_WHILE_UNNAMED = 200  # messages per publisher held until discovery names it: a late joiner's kept history
+
+
+class _Tally:
+    """The counters info_subscription keeps, for a node without diagnostics of its own."""
+
+    def __init__(self, counter: Counter):
+        self.counts = counter
+
+    def count(self, name: str, increment: int = 1) -> None:
+        self.counts[name] += increment
+
+    def fault(self, *_args, **_kwargs) -> None:
+        pass
+
+
 class JobObserver(Node):
     def __init__(self, record: JobRecord, **kwargs):
         super().__init__("grind_job", **kwargs)
@@ -59,17 +77,23 @@ class JobObserver(Node):
         self.client = ActionClient(self, GrindBead, "sequence_planner/grind_bead")
         # the latched topics keep their last message for late joiners; this reader keeps ten,
         # so that two arriving while its executor is busy (the recorder shares it) are both seen
-        self.create_subscription(ContourMsg, "grinding/contour", self._on_contour, RESULTS)
-        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, RESULTS)
-        # the planner's feedback carries every command too, kept for late joiners: a command
-        # topic holds only its last, which a restarted planner may have replaced before it matched
-        self.create_subscription(GrindBead.Feedback, "sequence_planner/job_feedback",
-                                 lambda feedback: self._on_command(feedback.command), RESULTS)
-        self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
-        self.create_subscription(ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, RESULTS)
-        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
-        self.create_subscription(GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS)
-        self.create_subscription(LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM)
+        # the record is what the cell's own nodes published: another process's messages on the
+        # same topics (an attack, issue 37) are counted in ``refused``, not recorded
+        self.refused = Counter()
+        for msg_type, topic, callback, qos, owner in (
+                (ContourMsg, "grinding/contour", self._on_contour, RESULTS, "plant"),
+                (PassCommand, "grinding/pass_command", self._on_command, RESULTS, "sequence_planner"),
+                # the planner's feedback carries every command too, kept for late joiners: a command
+                # topic holds only its last, which a restarted planner may have replaced before it matched
+                (GrindBead.Feedback, "sequence_planner/job_feedback",
+                 lambda feedback: self._on_command(feedback.command), RESULTS, "sequence_planner"),
+                (PassResult, "grinding/pass_result", self._on_result, RESULTS, ("plant", "pass_planner")),
+                (ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, RESULTS, "pass_planner"),
+                (PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY, "plant"),
+                (GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS, "sequence_planner"),
+                (LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM, "load_predictor/pass")):
+            info_subscription(self, msg_type, topic, callback, qos, _Tally(self.refused), topic, owner_node=owner,
+                              wait_depth=KEPT_WHILE_UNNAMED)
         self.job_id = None  # the job whose messages are recorded
         self.job_result = None
         self.foreign_messages = 0
@@ -96,7 +120,7 @@ class JobObserver(Node):
             self.record.contours.setdefault(int(msg.pass_index), (contour, msg.bead_width_mm))
 
     def _on_command(self, msg: PassCommand) -> None:
-        if self._mine(msg.job_id):
+        if self._mine(msg.job_id) and not msg.stop:  # a stop ends the pass it names: no new command
             if int(msg.pass_index) not in self.record.commands:
                 self.record.events.append(("command", int(msg.pass_index)))
             self.record.commands[int(msg.pass_index)] = {
@@ -278,7 +302,7 @@ class JobSession:
         if record:  # every topic of the cell, into output/recording (rosbag2's MCAP layout)
             self.recorder = Recorder(self.observer, BagWriter(fresh_recording_dir(self.output)), all_topics=True,
                                      under=namespace)
-        self.result_future = None
+        self.goal_handle = self.result_future = None
 
     def __enter__(self) -> JobSession:
         for name in self.graph.specs:
@@ -351,8 +375,17 @@ class JobSession:
                        "material_mm": float(np.trapezoid(bead.z_mm - bead.parent_mm, bead.x_mm) / bead.length_mm)}
         sent = observer.client.send_goal_async(goal)
         self.spin_until(sent.done, 60.0, "the goal's acceptance")
-        self.result_future = sent.result().get_result_async()
+        self.goal_handle = sent.result()
+        self.result_future = self.goal_handle.get_result_async()
         return goal.job_id
+
+    def cancel_job(self) -> None:
+        """Cancel the job's goal (as Ctrl-C on ``hexctl action send_goal`` does); its result
+        then comes through ``wait_for_outcome``."""
+        if self.goal_handle is None:
+            raise ValueError("no goal of this session to cancel")
+        cancelled = self.goal_handle.cancel_goal_async()
+        self.spin_until(cancelled.done, 30.0, "the cancel's answer")
 
     def resume_job(self) -> str:
         """Take up the unfinished job (``resume``): the plant the part as last scanned, then

@@ -59,15 +59,16 @@ class LostMessages:
 
 def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, name: str,
                       owner_node: str | tuple[str, ...] | None = None,
-                      with_source: bool = False) -> CommandOwner | None:
+                      with_source: bool = False, wait_depth: int = 16) -> CommandOwner | None:
     """Subscribe ``callback(msg)`` to ``topic``, counting lost messages in ``diagnostics``.
 
     ``owner_node``: None = every publisher; '' = the first publisher heard (hand use);
     otherwise the node name(s) whose publishers alone are obeyed, relative names (``plant``)
     resolved in this node's namespace, several as a tuple or comma-separated.
     ``with_source`` (with owners): ``callback(msg, source)``, source the sender's node name,
-    relative to this node's namespace when inside it (``pass_planner``). Returns the
-    CommandOwner, or None without one."""
+    relative to this node's namespace when inside it (``pass_planner``). ``wait_depth``:
+    messages per publisher held until discovery names it (a late joiner of a kept topic
+    receives its whole history at once). Returns the CommandOwner, or None without one."""
 
     def endpoints():
         return {bytes(info.endpoint_gid): info for info in node.get_publishers_info_by_topic(subscription.topic_name)}
@@ -82,7 +83,7 @@ def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, na
     if with_source and owners is None:
         raise ValueError(f"{topic}: the source of a message is known only with owners")
     owner = None if owners is None else CommandOwner(node_of, lambda gid: gid in endpoints(), owners)
-    gate = None if owner is None else OwnedInput(owner)
+    gate = None if owner is None else OwnedInput(owner, depth=wait_depth)
     gaps = LostMessages()
 
     def settle(deliver: list, refused: int) -> None:
