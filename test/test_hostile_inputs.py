@@ -1,7 +1,12 @@
 """Malformed and hostile messages on every input topic of the running graph (DESIGN.md
 section 6): NaN, inf, negative and absurd values, wrong array lengths, out-of-order stamps,
 generated property-based (hypothesis) in the thousands. No node may crash, nothing
-non-finite or out of limits may reach a command, and the rejections show in /diagnostics."""
+non-finite or out of limits may reach a command, and the rejections show in /diagnostics.
+
+Every input obeys the node named as its source (issue 37 item 3), so a stranger's messages
+stop at the door (counted ``foreign_*``). To reach the checks behind the door the fuzzer
+also plays the attacker the threat model leaves standing (docs/graph.md): a process that
+takes the name of the input's source."""
 
 import math
 import time
@@ -60,20 +65,39 @@ def message_strategy(cls):
         lambda values: cls(**values))
 
 
-UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematics, the predictors
-    ("/grinding/pass_command", PassCommand, LATCHED), ("/grinding/pass_result", PassResult, 10),
-    ("/grinding/contour", Contour, LATCHED), ("/grinding/force_trajectory", ForceTrajectory, LATCHED),
-    ("/plant/wrench", WrenchStamped, 100), ("/motion/setpoint_raw", PoseStamped, 100),
-    ("/motion/setpoint", PoseStamped, 100), ("/load_predictor/force/prediction", LoadPrediction, 10),
-    ("/load_predictor/pass/prediction", LoadPrediction, 10), ("/pass_planner/status", DiagnosticStatus, LATCHED),
-    ("/motion/tool_path_raw", ToolPath, LATCHED), ("/motion/tool_path", ToolPath, LATCHED)]
-PLANT = [("/plant/force_axis_command", ForceAxisCommand, 100), ("/plant/strut_command", JointState, 100),
-         ("/plant/strut_trajectory", JointTrajectory, LATCHED), ("/force_controller/status", DiagnosticStatus, LATCHED)]
+UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematics, the predictors, each
+    # sent under the name of the node it obeys (None: the fuzzer's own name)
+    ("/grinding/pass_command", PassCommand, LATCHED, "/sequence_planner"),
+    ("/grinding/pass_result", PassResult, 10, "/plant"), ("/grinding/contour", Contour, LATCHED, "/plant"),
+    ("/grinding/force_trajectory", ForceTrajectory, LATCHED, "/pass_planner"),
+    ("/plant/wrench", WrenchStamped, 100, "/plant"), ("/motion/setpoint_raw", PoseStamped, 100, None),
+    ("/motion/setpoint", PoseStamped, 100, "/input_shaper"),
+    ("/load_predictor/force/prediction", LoadPrediction, 10, "/load_predictor/force"),
+    ("/load_predictor/pass/prediction", LoadPrediction, 10, "/load_predictor/pass"),
+    ("/pass_planner/status", DiagnosticStatus, LATCHED, "/pass_planner"),
+    ("/motion/tool_path_raw", ToolPath, LATCHED, "/pass_planner"),
+    ("/motion/tool_path", ToolPath, LATCHED, "/input_shaper")]
+PLANT = [  # the force axis and the controller's status from a stranger: refused at the door
+    ("/plant/force_axis_command", ForceAxisCommand, 100, None),
+    ("/plant/strut_command", JointState, 100, "/kinematics"),
+    ("/plant/strut_trajectory", JointTrajectory, LATCHED, "/kinematics"),
+    ("/force_controller/status", DiagnosticStatus, LATCHED, None)]
+
+
+def impostor(session, fully_qualified: str | None, fuzzer):
+    """A node of this process under ``fully_qualified`` (e.g. '/load_predictor/force'), or the fuzzer."""
+    if fully_qualified is None:
+        return fuzzer
+    namespace, name = fully_qualified.rsplit("/", 1)
+    node = rclpy.create_node(name, namespace=namespace or "/", context=session.context)
+    session.executor.add_node(node)
+    return node
 
 
 def fuzz(session, node, topics, examples: int) -> None:
-    publishers = {topic: node.create_publisher(cls, topic, qos) for topic, cls, qos in topics}
-    strategies = {topic: message_strategy(cls) for topic, cls, _ in topics}
+    publishers = {topic: impostor(session, owner, node).create_publisher(cls, topic, qos)
+                  for topic, cls, qos, owner in topics}
+    strategies = {topic: message_strategy(cls) for topic, cls, _, _ in topics}
     time.sleep(1.0)  # let the publishers match
 
     @settings(max_examples=examples, deadline=None, database=None, derandomize=True,
@@ -91,8 +115,9 @@ def refuse_a_hostile_command(session, node) -> None:
     """A non-finite command for a pass whose contour the pass planner holds: the fuzzed
     commands rarely meet a fuzzed contour of their own pass, so this one is sent on purpose."""
     bead, width = session.record.contours[0]
-    contour_pub = node.create_publisher(Contour, "/grinding/contour", LATCHED)
-    command_pub = node.create_publisher(PassCommand, "/grinding/pass_command", LATCHED)
+    contour_pub = impostor(session, "/plant", node).create_publisher(Contour, "/grinding/contour", LATCHED)
+    command_pub = impostor(session, "/sequence_planner", node).create_publisher(PassCommand, "/grinding/pass_command",
+                                                                                LATCHED)
     refused = []
     node.create_subscription(PassResult, "/grinding/pass_result",
                              lambda m: refused.append(m) if m.job_id == "hostile" else None, 10)
@@ -137,9 +162,9 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         assert name in rejected, f"{name} published no diagnostics"
         counts = rejected[name]
         assert (counts.get(key, 0) if key else sum(counts.values())) > 0, f"{name}: {counts}"
-    # the plant's inputs: refused as invalid, or before that as not their owner's (the force
-    # controller's and the kinematics node's, if it spoke first); the trajectory input is the fuzzer's
+    # the plant's inputs: the stranger's force commands refused as not their owner's, the
+    # impostor's strut commands and trajectories refused as invalid (or clamped)
     plant = rejected["/plant"]
-    assert plant.get("foreign_force_command", 0) > 0, plant
+    assert plant.get("foreign_force_command", 0) > 0 and plant.get("foreign_controller_status", 0) > 0, plant
     assert plant.get("rejected_strut_command", 0) + plant.get("foreign_strut_command", 0) > 0, plant
     assert plant.get("rejected_strut_trajectory", 0) > 0, plant
