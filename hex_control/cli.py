@@ -382,8 +382,8 @@ def _campaign(args) -> int:
     from hex_control.campaign import campaign_record, gather, run_campaign, seeded_jobs, write_campaign
     from hex_control.campaign.executors import ProcessExecutor, RayExecutor
     from hex_control.grinding.job_report import job_statistics
-    from hex_control.nodes.campaign_cell import campaign_settings, grind_cell, job_line, tolerance_mm
-    from hex_control.nodes.grind_job import RUN_DEFAULTS, run_options
+    from hex_control.nodes.campaign_cell import campaign_settings, grind_cell, tolerance_mm
+    from hex_control.nodes.grind_job import RUN_DEFAULTS, job_line, run_options
 
     given = {name: getattr(args, name, None) for name in RUN_DEFAULTS if getattr(args, name, None) is not None}
     options = run_options(given)

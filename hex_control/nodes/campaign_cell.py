@@ -13,13 +13,11 @@ from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
 
 from hex_control.campaign import Job
 from hex_control.campaign.domains import lease_domain
 from hex_control.config import config_file
-from hex_control.grinding.job import unfinished_logs
 
 
 def campaign_settings(options: dict, machine_file: str, record: bool = True, timeout_s: float = 1800.0) -> dict:
@@ -38,46 +36,18 @@ def campaign_settings(options: dict, machine_file: str, record: bool = True, tim
 
 
 def grind_cell(job: Job) -> dict:
-    """One seeded job in its own ROS domain; the job's summary (``job.json``'s content, and
-    ``_where``: host and domain, for campaign.json). A graph that fails raises GraphFailure
-    (``resume_dir`` set where an unfinished job is left: ``hexctl demo --resume`` takes it up)."""
-    from hex_control.grinding.job_report import write_report
-    from hex_control.nodes.grind_job import GraphFailure, run_job, start_policy, store_run_options
+    """One seeded job in its own ROS domain, as ``hexctl demo --jobs N`` runs each; the job's
+    summary (``job.json``'s content, and ``_where``: host and domain, for campaign.json). A
+    graph that fails raises GraphFailure (``resume_dir`` set where an unfinished job is
+    left: ``hexctl demo --resume`` takes it up)."""
+    from hex_control.nodes.grind_job import run_seeded_job
 
-    settings, directory = job.settings, Path(job.directory)
-    options = {**settings["options"], "seed": job.seed}
-    overrides = {"bead_length_mm": float(options["bead_length"]), "bead_height_mm": float(options["bead_height"]),
-                 "dulling_per_pass": float(options["dulling"])}
-    store_run_options(directory, options)
+    settings = job.settings
     with lease_domain(os.environ) as domain:
-        start = time.monotonic()
-        try:
-            record = run_job(directory, options["deadline"], job.seed, "lockstep", options["real_time_factor"],
-                             settings["reset_time_s"], overrides, timeout_s=settings["timeout_s"], quiet=True,
-                             machine_file=str(config_file(settings["machine_file"])),
-                             namespace=options["namespace"], record=settings["record"])
-        except GraphFailure as exc:
-            jobs_dir = directory / "jobs"
-            exc.resume_dir = directory if jobs_dir.is_dir() and unfinished_logs(jobs_dir) else None
-            raise
-        wall = time.monotonic() - start
-    policy, _ = start_policy(record)
-    summary = write_report(record, directory, policy)
-    summary["wall_s"] = wall
-    summary["simulated_pass_time_s"] = sum(r["duration_s"] for r in record.results.values())
-    (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
+        summary, _ = run_seeded_job(Path(job.directory), {**settings["options"], "seed": job.seed},
+                                    reset_time_s=settings["reset_time_s"], machine_file=settings["machine_file"],
+                                    quiet=True, record=settings["record"], timeout_s=settings["timeout_s"])
     return {**json.loads(json.dumps(summary, default=float)), "_where": {"ros_domain_id": domain}}
-
-
-def job_line(seed: int, summary: dict) -> str:
-    """The line ``hexctl demo --jobs N`` prints for a job that ran."""
-    from hex_control.nodes.grind_job import _part_text
-
-    o = summary["outcome"]
-    return (f"job {seed}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
-            f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
-            f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {_part_text(summary)}; "
-            f"{summary['simulated_pass_time_s']:.0f} s of passes in {summary['wall_s']:.0f} s wall")
 
 
 def tolerance_mm() -> float:

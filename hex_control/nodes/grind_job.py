@@ -615,6 +615,52 @@ def store_run_options(directory: Path, options: dict) -> Path:
     return path
 
 
+def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None, machine_file: str,
+                   quiet: bool = False, placement: dict | None = None, restart_planner_after: int | None = None,
+                   record: bool = True, resume: bool = False, timeout_s: float = 1800.0) -> tuple[dict, object]:
+    """One job of ``hexctl demo`` or of a campaign's cell, on a fresh graph: the run's
+    ``options`` (:func:`run_options`, its seed included) stored in ``directory`` (unless
+    resumed), the job run, its report written (``job.json`` with ``wall_s`` and
+    ``simulated_pass_time_s``). The summary and the start policy's charges. A graph that
+    fails raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
+    import json
+
+    from hex_control.grinding.job_report import write_report
+
+    directory, seed = Path(directory), options["seed"]
+    if not resume:
+        store_run_options(directory, options)
+    overrides = {"bead_length_mm": float(options["bead_length"]), "bead_height_mm": float(options["bead_height"]),
+                 "dulling_per_pass": float(options["dulling"])}
+    start = time.monotonic()
+    try:
+        job = run_job(directory, options["deadline"], seed, "realtime" if options["realtime"] else "lockstep",
+                      options["real_time_factor"], reset_time_s, overrides, timeout_s=timeout_s, quiet=quiet,
+                      placement=placement, machine_file=str(config_file(machine_file)),
+                      restart_planner_after=restart_planner_after, namespace=options["namespace"], record=record,
+                      resume=resume)
+    except GraphFailure as exc:
+        jobs_dir = directory / "jobs"
+        exc.resume_dir = directory if jobs_dir.is_dir() and unfinished_logs(jobs_dir) else None
+        raise
+    wall = time.monotonic() - start
+    policy, charges = start_policy(job)
+    summary = write_report(job, directory, policy)
+    summary["wall_s"] = wall
+    summary["simulated_pass_time_s"] = sum(r["duration_s"] for r in job.results.values())
+    (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
+    return summary, charges
+
+
+def job_line(seed: int, summary: dict) -> str:
+    """The line printed for a job that ran (``hexctl demo``, ``hexctl campaign``)."""
+    o = summary["outcome"]
+    return (f"job {seed}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
+            f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
+            f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {_part_text(summary)}; "
+            f"{summary['simulated_pass_time_s']:.0f} s of passes in {summary['wall_s']:.0f} s wall")
+
+
 def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_ingersoll.yaml", jobs: int = 1,
              machine_host: list[str] | None = None,
              machine_peers: str = "", restart_planner_after: int | None = None, record: bool = True,
@@ -631,10 +677,9 @@ def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_i
     raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
     import json
 
-    from hex_control.grinding.job_report import job_statistics, write_report
+    from hex_control.grinding.job_report import job_statistics
 
-    seed, deadline_s = options["seed"], options["deadline"]
-    mode = "realtime" if options["realtime"] else "lockstep"
+    seed = options["seed"]
     if use_private_domain(os.environ):
         print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
               "to run it in yours)")
@@ -643,41 +688,20 @@ def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_i
         jobs, reset_time_s = 1, None
         print(f"resuming the unfinished job of {resumable_job_dir(out)} (seed {seed})")
     else:
-        reset_time_s = _calibrated_reset_time(options["bead_length"], deadline_s, machine_file)
-    overrides = {"bead_length_mm": float(options["bead_length"]), "bead_height_mm": float(options["bead_height"]),
-                 "dulling_per_pass": float(options["dulling"])}
+        reset_time_s = _calibrated_reset_time(options["bead_length"], options["deadline"], machine_file)
     placement = None
     if machine_host:  # the machine-side nodes on another host (network namespace) with its DDS peers
         placement = {name: (machine_host, {"ROS_STATIC_PEERS": machine_peers} if machine_peers else {})
                      for name in MACHINE_SIDE}
         print(f"machine-side nodes {', '.join(MACHINE_SIDE)} run under: {' '.join(machine_host)}")
-    summaries = []
+    summaries, charges = [], None
     for k in range(jobs):
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
-        if not resume:
-            store_run_options(directory, {**options, "seed": seed + k})
-        start = time.monotonic()
-        try:
-            record = run_job(directory, deadline_s, seed + k, mode, options["real_time_factor"], reset_time_s,
-                             overrides, quiet=jobs > 1, placement=placement,
-                             machine_file=str(config_file(machine_file)), restart_planner_after=restart_planner_after,
-                             namespace=options["namespace"], record=record, resume=resume)
-        except GraphFailure as exc:
-            jobs_dir = directory / "jobs"
-            exc.resume_dir = directory if jobs_dir.is_dir() and unfinished_logs(jobs_dir) else None
-            raise
-        wall = time.monotonic() - start
-        policy, charges = start_policy(record)
-        summary = write_report(record, directory, policy)
-        simulated = sum(r["duration_s"] for r in record.results.values())
-        summary["wall_s"], summary["simulated_pass_time_s"] = wall, simulated
-        (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
+        summary, charges = run_seeded_job(directory, {**options, "seed": seed + k}, reset_time_s=reset_time_s,
+                                          machine_file=machine_file, quiet=jobs > 1, placement=placement,
+                                          restart_planner_after=restart_planner_after, record=record, resume=resume)
         summaries.append(summary)
-        o = record.outcome
-        print(f"job {seed + k}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
-              f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
-              f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {_part_text(summary)}; "
-              f"{simulated:.0f} s of passes in {wall:.0f} s wall", flush=True)
+        print(job_line(seed + k, summary), flush=True)
     if jobs > 1:
         stats = job_statistics(summaries, charges.deadline.tolerance_mm)
         (out / "statistics.json").write_text(json.dumps(stats, indent=2))
