@@ -8,14 +8,14 @@ PACKAGE = "hex_control"
 # One console script per node: `ros2 run hex_control <name>` in a full ROS 2 install
 # (setup.cfg puts them in lib/hex_control), `hex-<name>` on the PATH of the venv.
 NODES = {
-    "load_predictor": "hex_control.nodes.load_predictor:main",
-    "synthetic_load": "hex_control.nodes.synthetic_load:main",
-    "kinematics": "hex_control.nodes.kinematics:main",
-    "sequence_planner": "hex_control.nodes.sequence_planner:main",
-    "input_shaper": "hex_control.nodes.input_shaper:main",
-    "force_controller": "hex_control.nodes.force_controller:main",
-    "plant": "hex_control.nodes.plant:main",
-    "pass_planner": "hex_control.nodes.pass_planner:main",
+    "load_predictor": "hex_control.ros.nodes.load_predictor:main",
+    "synthetic_load": "hex_control.ros.nodes.synthetic_load:main",
+    "kinematics": "hex_control.ros.nodes.kinematics:main",
+    "sequence_planner": "hex_control.ros.nodes.sequence_planner:main",
+    "input_shaper": "hex_control.ros.nodes.input_shaper:main",
+    "force_controller": "hex_control.ros.nodes.force_controller:main",
+    "plant": "hex_control.ros.nodes.plant:main",
+    "pass_planner": "hex_control.ros.nodes.pass_planner:main",
 }
 
 setup(

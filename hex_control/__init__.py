@@ -6,7 +6,7 @@ Names carry the unit as a suffix (``feed_speed_mm_s``) or the docstring states i
 Standard ROS messages (geometry_msgs, sensor_msgs) keep their REP 103 SI meaning;
 the nodes convert at that boundary.
 
-The domain packages (everything except ``hex_control.nodes`` and the topic tools of
+The domain packages (everything except ``hex_control.ros`` and the topic tools of
 ``hex_control.cli``) are plain numpy/scipy code without rclpy.
 """
 

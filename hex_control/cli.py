@@ -17,7 +17,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="hexctl", description=__doc__)
     commands = parser.add_subparsers(dest="command", required=True)
 
-    # the run's options default to None here (hex_control.nodes.grind_job.RUN_DEFAULTS fills
+    # the run's options default to None here (hex_control.ros.app.grind_job.RUN_DEFAULTS fills
     # them): --resume must tell an option given from one left out
     demo = commands.add_parser("demo", help="the main job: the whole hierarchy grinds a weld bead on the plant",
                                epilog="exit codes: 0 the job(s) ended as the policy intended, without burn; 1 not; "
@@ -242,14 +242,14 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-#: list and info verbs wait until discovery has settled (hex_control.nodes.ros_cli.common.settle_graph),
+#: list and info verbs wait until discovery has settled (hex_control.ros.tools.ros_cli.common.settle_graph),
 #: at most this long (s)
 GRAPH_WAIT_S = 10.0
 GRAPH_WAIT_HELP = "wait at most this long (s) for discovery to settle (it ends sooner when the graph stands still)"
 
 
 def _ros_verbs(commands) -> None:
-    """hexctl node / param / service / action: ros2cli's verbs (hex_control/nodes/ros_cli/)."""
+    """hexctl node / param / service / action: ros2cli's verbs (hex_control/ros/tools/ros_cli/)."""
     node = commands.add_parser("node", help="nodes of the graph (ros2 node stand-in)").add_subparsers(
         dest="verb", required=True)
     node.add_parser("list", help="list nodes").add_argument("--wait", type=float, default=GRAPH_WAIT_S,
@@ -310,7 +310,7 @@ def _list_verb(verbs, what: str) -> None:
 
 def _ros_verb(args) -> int:
     if args.command == "topic":
-        from hex_control.nodes.ros_cli import topic
+        from hex_control.ros.tools.ros_cli import topic
 
         if args.verb == "list":
             return topic.topic_list(args.show_types, args.wait, args.include_hidden)
@@ -324,12 +324,12 @@ def _ros_verb(args) -> int:
         return topic.topic_pub(args.topic, args.type, args.values, args.rate, 1 if args.once else args.times,
                                args.wait, args.qos_durability, args.qos_reliability, args.qos_depth)
     if args.command == "node":
-        from hex_control.nodes.ros_cli import node
+        from hex_control.ros.tools.ros_cli import node
 
         return node.node_list(args.wait) if args.verb == "list" else \
             node.node_info(args.node, args.wait, args.include_hidden)
     if args.command == "param":
-        from hex_control.nodes.ros_cli import param
+        from hex_control.ros.tools.ros_cli import param
 
         if args.verb in ("list", "dump"):
             return getattr(param, f"param_{args.verb}")(args.node, args.timeout)
@@ -341,16 +341,16 @@ def _ros_verb(args) -> int:
             return param.param_load(args.node, args.file, args.timeout, not args.no_use_wildcard)
         return param.param_get(args.node, args.name, args.timeout)
     if args.command == "service":
-        from hex_control.nodes.ros_cli import service
+        from hex_control.ros.tools.ros_cli import service
 
         if args.verb == "list":
             return service.service_list(args.show_types, args.wait, args.include_hidden)
         return service.service_call(args.service, args.type, args.values, args.timeout, not args.no_resend)
     if args.command == "interface":
-        from hex_control.nodes.ros_cli.interface import interface_show
+        from hex_control.ros.tools.ros_cli.interface import interface_show
 
         return interface_show(args.type)
-    from hex_control.nodes.ros_cli import action
+    from hex_control.ros.tools.ros_cli import action
 
     if args.verb == "list":
         return action.action_list(args.show_types, args.wait)
@@ -382,8 +382,8 @@ def _campaign(args) -> int:
     from hex_control.campaign import campaign_record, gather, run_campaign, seeded_jobs, write_campaign
     from hex_control.campaign.executors import ProcessExecutor, RayExecutor
     from hex_control.grinding.job_report import job_statistics
-    from hex_control.nodes.campaign_cell import campaign_settings, grind_cell, tolerance_mm
-    from hex_control.nodes.grind_job import RUN_DEFAULTS, job_line, run_options
+    from hex_control.ros.app.campaign_cell import campaign_settings, grind_cell, tolerance_mm
+    from hex_control.ros.app.grind_job import RUN_DEFAULTS, job_line, run_options
 
     given = {name: getattr(args, name, None) for name in RUN_DEFAULTS if getattr(args, name, None) is not None}
     options = run_options(given)
@@ -597,7 +597,7 @@ def _exit_on_sigterm(signum, frame):
 def _demo(args) -> int:
     """``hexctl demo``: the run's options (resumed: the stored ones, a conflict refused), the
     run; a graph that fails (a node died, the loop stood) is one line on stderr and exit 3."""
-    from hex_control.nodes.grind_job import RUN_DEFAULTS, GraphFailure, resumable_job_dir, run_demo, run_options
+    from hex_control.ros.app.grind_job import RUN_DEFAULTS, GraphFailure, resumable_job_dir, run_demo, run_options
 
     given = {name: getattr(args, name) for name in RUN_DEFAULTS if getattr(args, name) is not None}
     if args.resume is not None:
@@ -713,7 +713,7 @@ def main(argv=None) -> int:
         if args.command == "demo":
             return _demo(args)
         if args.command == "demo-load-predictor":
-            from hex_control.nodes.demo_load_predictor import run_demo
+            from hex_control.ros.app.demo_load_predictor import run_demo
 
             return run_demo(args.output, args.samples, args.rate, args.seed)
         if args.command == "job-stats":
@@ -729,12 +729,12 @@ def main(argv=None) -> int:
         if args.command == "pass":
             return _pass(args)
         if args.command == "record":
-            from hex_control.nodes.recorder import record
+            from hex_control.ros.tools.recorder import record
 
             return record(args.output or time.strftime("rosbag2_%Y_%m_%d-%H_%M_%S"), args.topics, args.all,
                           args.duration)
         if args.command == "play":
-            from hex_control.nodes.recorder import play
+            from hex_control.ros.tools.recorder import play
 
             return play(args.directory, args.rate, args.topics, args.wait, args.loop, args.clock, args.remap)
         if args.command == "bag":
@@ -756,7 +756,7 @@ def main(argv=None) -> int:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
     except Exception as exc:
-        from hex_control.nodes.ros_cli.common import VerbError
+        from hex_control.ros.tools.ros_cli.common import VerbError
 
         if isinstance(exc, VerbError):
             if exc.code != 130:

@@ -24,8 +24,8 @@ from geometry_msgs.msg import WrenchStamped
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 
-from hex_control.nodes.graph import NodeGraph, graph_nodes
-from hex_control.nodes.interfaces import STREAM
+from hex_control.ros.app.graph import NodeGraph, graph_nodes
+from hex_control.ros.infra.interfaces import STREAM
 from hex_control_msgs.msg import ForceAxisCommand
 
 

@@ -6,7 +6,7 @@ import os
 import sys
 from pathlib import Path
 
-# as in `make test` and the nodes (hex_control/nodes/__init__.py): one OpenBLAS thread, since
+# as in `make test` and the nodes (hex_control/ros/__init__.py): one OpenBLAS thread, since
 # its spinning workers slow numpy 20x on a loaded machine; effective if numpy is not loaded yet
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 

@@ -23,7 +23,7 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile
 
-from hex_control.nodes.graph import stop_hung
+from hex_control.ros.app.graph import stop_hung
 
 #: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively, and of
 #: 200..232, where the loop benchmark (hex_control/bench/loop.py) starts its own

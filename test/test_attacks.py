@@ -27,8 +27,8 @@ from rclpy.action import ActionClient
 from std_msgs.msg import Float64
 
 from hex_control.grinding.part_quality import TOLERANCE_MM, part_quality
-from hex_control.nodes.grind_job import JobSession
-from hex_control.nodes.interfaces import LATCHED, RESULTS
+from hex_control.ros.app.grind_job import JobSession
+from hex_control.ros.infra.interfaces import LATCHED, RESULTS
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import (
     ForceAxisCommand,

@@ -46,6 +46,6 @@ def test_every_node_reads_the_cells_values():
     predictor = node_parameters("load_predictor.yaml", "load_predictor/pass")
     assert cell_value(predictor["mean_from_cell"]) == process.specific_energy_j_mm3
     # the force controller's ceiling is a setting of its own that starts at the cell's F_max
-    from hex_control.nodes.force_controller import PARAMETERS
+    from hex_control.ros.nodes.force_controller import PARAMETERS
 
     assert PARAMETERS["max_force_n"].default == process.force_max_n

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 from test_end_to_end import assert_contact_when_planned
 
-from hex_control.nodes.grind_job import JobSession
+from hex_control.ros.app.grind_job import JobSession
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
 RESET_TIME_S = 4.7  # the shipped machine's ZVD-shaped t_R (test_grinding_cell)

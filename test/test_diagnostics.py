@@ -1,6 +1,6 @@
-"""Named faults behind every node's /diagnostics level (hex_control.nodes.diagnostics.Health)."""
+"""Named faults behind every node's /diagnostics level (hex_control.ros.infra.diagnostics.Health)."""
 
-from hex_control.nodes.diagnostics import ERROR, OK, WARN, Health
+from hex_control.ros.infra.diagnostics import ERROR, OK, WARN, Health
 
 
 class FakeClock:

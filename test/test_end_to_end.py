@@ -17,9 +17,9 @@ import pytest
 
 from hex_control.config import config_file
 from hex_control.grinding.part_quality import part_quality
-from hex_control.nodes.graph import graph_nodes
-from hex_control.nodes.grind_job import JobSession
 from hex_control.recording.bag import read_messages
+from hex_control.ros.app.graph import graph_nodes
+from hex_control.ros.app.grind_job import JobSession
 from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}

@@ -10,8 +10,8 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Header
 
-from hex_control.nodes.force_controller import ForceControllerNode
 from hex_control.plant.force_table import ForceTable, ForceTableParameters
+from hex_control.ros.nodes.force_controller import ForceControllerNode
 from hex_control_msgs.msg import ForceAxisCommand
 from ros_harness import wait_until
 
@@ -142,7 +142,7 @@ def test_a_saturated_command_warns_until_it_comes_off_the_limit(ros):
     (docs/nodes.md) measured 0 N, the command pinned at +2 mm, and the controller said OK.
     Now a command held at a limit for saturation_warn_s (1 s) while tracking is a WARN that
     clears when the work is reached."""
-    from hex_control.nodes.diagnostics import OK, WARN
+    from hex_control.ros.infra.diagnostics import OK, WARN
 
     plant = LockStepTablePlant(ros, lambda t: 20.0, hold_at_s=1.5)
     plant.table.surface_mm = 5.0  # beyond the controller's +2 mm
@@ -221,7 +221,7 @@ def test_a_stray_stamp_changes_nothing(ros):
 def test_negative_stamps_are_refused_not_a_crash(ros):
     """rclpy's Time.from_msg raises on sec < 0: a wrench or a force trajectory stamped before
     the epoch is refused and counted, and the controller answers the next good measurement."""
-    from hex_control.nodes.interfaces import LATCHED
+    from hex_control.ros.infra.interfaces import LATCHED
     from hex_control_msgs.msg import ForceTrajectory
 
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
@@ -293,7 +293,7 @@ def test_a_force_trajectory_is_taken_only_from_the_planner_for_the_commanded_pas
     commanded last (one that comes before its command waits for it)."""
     from diagnostic_msgs.msg import DiagnosticStatus
 
-    from hex_control.nodes.interfaces import LATCHED
+    from hex_control.ros.infra.interfaces import LATCHED
     from hex_control_msgs.msg import ForceTrajectory, PassCommand
 
     controller = ros.add(ForceControllerNode(context=ros.context, parameter_overrides=[
@@ -323,7 +323,7 @@ def test_a_force_trajectory_is_taken_only_from_the_planner_for_the_commanded_pas
 def test_a_direct_setpoint_does_not_drop_a_held_trajectory(ros):
     """Issue 37: one Float64 0.0 on ~/setpoint dropped the pass's trajectory (the pass cut
     0.048 of 0.308 mm). It is refused while a trajectory is held, counted, and said."""
-    from hex_control.nodes.interfaces import LATCHED
+    from hex_control.ros.infra.interfaces import LATCHED
     from hex_control_msgs.msg import ForceTrajectory
 
     plant = LockStepTablePlant(ros, lambda t: None, hold_at_s=0.0)
@@ -384,8 +384,8 @@ def test_after_an_overload_trip_the_controller_backs_off_so_the_plant_resets(ros
     """Issue 37: the plant tripped at 152 N and stayed at 0 N, the controller pushing on into
     the retracted table. The work rises 1.5 mm under a 60 N pass: the plant trips; the
     controller retracts and holds (the trip resets), until the next pass, which it tracks."""
-    from hex_control.nodes.interfaces import LATCHED
     from hex_control.plant.limits import ForceAxisLimits
+    from hex_control.ros.infra.interfaces import LATCHED
     from hex_control_msgs.msg import ForceTrajectory
 
     limits = ForceAxisLimits(travel_mm=(-5.0, 2.0), overload_n=150.0)

@@ -139,7 +139,7 @@ def test_third_order_table_tracks_like_the_two_pole_fit_at_low_frequency():
 
 def test_force_laws_are_built_by_name_from_the_controllers_parameters():
     from hex_control.control.force_law import FORCE_LAWS, EnergyForceLaw, make_force_law
-    from hex_control.nodes.force_controller import PARAMETERS
+    from hex_control.ros.nodes.force_controller import PARAMETERS
 
     parameters = {name: spec.default for name, spec in PARAMETERS.items()}
     assert set(FORCE_LAWS) == {"pi", "energy_optimal"} == set(PARAMETERS["law"].choices)
@@ -460,7 +460,7 @@ def test_the_force_controller_node_reads_the_cell_not_the_plant():
     from pathlib import Path
 
     from hex_control.grinding.config import cell_value
-    from hex_control.nodes import force_controller
+    from hex_control.ros.nodes import force_controller
 
     tree = ast.parse(Path(force_controller.__file__).read_text())
     modules = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)]

@@ -1,4 +1,4 @@
-"""The node graph as processes (hex_control.nodes.graph): a graph that does not start says
+"""The node graph as processes (hex_control.ros.app.graph): a graph that does not start says
 where each node waits before it is stopped; a run's job directory is its own."""
 
 from pathlib import Path
@@ -7,7 +7,7 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 
 from hex_control.config import node_parameters
-from hex_control.nodes.graph import NodeGraph, graph_nodes
+from hex_control.ros.app.graph import NodeGraph, graph_nodes
 from ros_harness import wait_until
 
 
@@ -33,7 +33,7 @@ def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
     """The sequence planner resumes any unfinished job in its job directory: a demo run
     again into the same output after one was cut off moves that log aside and starts clean;
     finished logs stay where they are."""
-    from hex_control.nodes.grind_job import fresh_job_dir
+    from hex_control.ros.app.grind_job import fresh_job_dir
 
     jobs = tmp_path / "jobs"
     jobs.mkdir()
@@ -52,7 +52,7 @@ def test_a_demo_keeps_to_a_domain_of_its_own_unless_one_is_set():
     """Issue 23 item 4: two demos (or a demo and a user's graph) on one host must not meet."""
     import os
 
-    from hex_control.nodes.grind_job import use_private_domain
+    from hex_control.ros.app.grind_job import use_private_domain
 
     environment = {}
     assert use_private_domain(environment)
@@ -110,7 +110,7 @@ def effective_parameters(spec) -> dict:
     the --params-file(s), then the -p values on its command line (as strings)."""
     import importlib
 
-    module = importlib.import_module(f"hex_control.nodes.{spec.module}")
+    module = importlib.import_module(f"hex_control.ros.nodes.{spec.module}")
     values = {name: parameter.default for name, parameter in module.PARAMETERS.items()}
     arguments = list(spec.arguments)
     node = {"load_predictor_pass": "load_predictor/pass", "load_predictor_force": "load_predictor/force"}.get(

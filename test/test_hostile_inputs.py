@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory
 
-from hex_control.nodes.grind_job import JobSession
-from hex_control.nodes.interfaces import LATCHED, contour_to_message
-from hex_control.nodes.messages import message_class
+from hex_control.ros.app.grind_job import JobSession
+from hex_control.ros.infra.interfaces import LATCHED, contour_to_message
+from hex_control.ros.infra.messages import message_class
 from hex_control_msgs.msg import (
     Contour,
     ForceAxisCommand,

@@ -8,7 +8,7 @@ import pytest
 from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 
-from hex_control.nodes.input_shaper import InputShaperNode
+from hex_control.ros.nodes.input_shaper import InputShaperNode
 from ros_harness import wait_until
 
 
@@ -75,7 +75,7 @@ def test_a_whole_tool_path_is_shaped_as_the_stream_would_be(ros, shaper_node):
     channel, its identity kept, longer by the shaper's delay so it ends at rest, and
     stamped the shaper's lag (half the ZVD: 0.05 s) early, so that it is on time where it
     moves at constant velocity. Only the pass planner's paths are shaped."""
-    from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
+    from hex_control.ros.infra.interfaces import LATCHED, PATH_FIELDS
     from hex_control_msgs.msg import ToolPath
 
     shaper, _, _ = shaper_node()

@@ -16,7 +16,7 @@ from hex_control.kinematics.rotation import quaternion_from_rpy
 from hex_control.kinematics.service import MAX_POSES
 from hex_control.kinematics.stewart import strut_lengths
 from hex_control.kinematics.workspace import compute_workspace
-from hex_control.nodes.interfaces import LATCHED, PATH_FIELDS
+from hex_control.ros.infra.interfaces import LATCHED, PATH_FIELDS
 from hex_control_msgs.msg import KinematicsErrorCode as Code
 from hex_control_msgs.msg import ToolPath, ToolPose
 from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKinematics, TestPose
@@ -47,7 +47,7 @@ def tool_path(rows, pass_index: int) -> ToolPath:
 def test_the_reports_are_the_messages_rosidl_builds():
     """The node fills ConstraintReport's slots (8x faster than its constructor): same messages."""
     from hex_control.kinematics.service import KinematicsCore
-    from hex_control.nodes.kinematics_messages import _FAST, constraint_reports, pose_rows
+    from hex_control.ros.nodes.kinematics_messages import _FAST, constraint_reports, pose_rows
     from hex_control_msgs.msg import ConstraintReport
 
     assert _FAST

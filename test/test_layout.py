@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 ROS_MODULES = ("rclpy", "hex_control_msgs", "std_msgs", "geometry_msgs", "sensor_msgs",
                "diagnostic_msgs", "trajectory_msgs", "rcl_interfaces", "rosgraph_msgs")
-ROS_ALLOWED = ("hex_control/nodes/", "hex_control/cli.py")
+ROS_ALLOWED = ("hex_control/ros/", "hex_control/cli.py")
 
 
 def imported_modules(path: Path) -> set[str]:
@@ -34,7 +34,7 @@ def test_library_does_not_import_ros():
             offenders.append(f"{relative}: {sorted(leaked)}")
     assert not offenders, offenders
     # and the check itself sees an import where there is one
-    assert "rclpy" in imported_modules(ROOT / "hex_control/nodes/runtime.py")
+    assert "rclpy" in imported_modules(ROOT / "hex_control/ros/infra/runtime.py")
 
 
 def test_package_manifests():

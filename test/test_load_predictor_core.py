@@ -118,7 +118,7 @@ def test_the_node_parameters_default_to_the_settings():
     """One source: the node's PARAMETERS take their defaults from LoadPredictorSettings."""
     from dataclasses import fields
 
-    from hex_control.nodes.load_predictor import PARAMETERS
+    from hex_control.ros.nodes.load_predictor import PARAMETERS
 
     for f in fields(LoadPredictorSettings):
         assert PARAMETERS[f.name].default == f.default, f.name

@@ -16,7 +16,7 @@ from std_msgs.msg import Float64, Header
 from hex_control.estimation import GaussMarkovModel, OneStepPredictor, expected_skill, skill_score
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.estimation.kalman import steady_state_variance
-from hex_control.nodes.load_predictor import LoadPredictorNode
+from hex_control.ros.nodes.load_predictor import LoadPredictorNode
 from hex_control_msgs.msg import LoadPrediction
 from ros_harness import NodeProcess, wait_until
 
@@ -245,7 +245,7 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
 
 
 def test_a_relative_input_resolves_in_the_node_or_its_parent_namespace():
-    from hex_control.nodes.load_predictor import input_topic_name
+    from hex_control.ros.nodes.load_predictor import input_topic_name
 
     assert input_topic_name("grinding/pass_result", "node", "/cell2/load_predictor") == "grinding/pass_result"
     assert input_topic_name("grinding/pass_result", "parent", "/cell2/load_predictor") == "/cell2/grinding/pass_result"
@@ -266,7 +266,7 @@ def test_the_graphs_pass_predictor_in_a_cell_hears_the_cells_results_with_its_pa
     import rclpy
 
     from hex_control.config import node_parameters
-    from hex_control.nodes.graph import graph_nodes
+    from hex_control.ros.app.graph import graph_nodes
     from hex_control_msgs.msg import PassResult
 
     [spec] = [s for s in graph_nodes(tmp_path / "jobs", namespace="/cell7") if s.name == "load_predictor_pass"]

@@ -168,7 +168,7 @@ def test_the_plant_node_runs_a_third_machine_kind(ros, stage_file):
     from rclpy.parameter import Parameter
     from sensor_msgs.msg import JointState
 
-    from hex_control.nodes.plant import PlantNode
+    from hex_control.ros.nodes.plant import PlantNode
     from ros_harness import wait_until
 
     ros.add(PlantNode(context=ros.context, parameter_overrides=[

@@ -1,7 +1,7 @@
 """Reading message info on either executor, and counting the messages lost on the way
-(hex_control.nodes.message_info; issue 21 item 8: drops under a flood were not counted)."""
+(hex_control.ros.infra.message_info; issue 21 item 8: drops under a flood were not counted)."""
 
-from hex_control.nodes.message_info import LostMessages, _WithMessageInfo
+from hex_control.ros.infra.message_info import LostMessages, _WithMessageInfo
 
 
 def test_both_executor_calling_conventions_reach_the_callback():

@@ -3,7 +3,7 @@
 import pytest
 from geometry_msgs.msg import WrenchStamped
 
-from hex_control.nodes.messages import (
+from hex_control.ros.infra.messages import (
     check_numeric_field,
     fill_message,
     get_field,

@@ -10,15 +10,15 @@ from rcl_interfaces.msg import ParameterType
 from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
-from hex_control.nodes.force_controller import ForceControllerNode
-from hex_control.nodes.input_shaper import InputShaperNode
-from hex_control.nodes.kinematics import KinematicsNode
-from hex_control.nodes.load_predictor import LoadPredictorNode
-from hex_control.nodes.parameters import ParameterError, ParameterSpec, declare_parameters
-from hex_control.nodes.pass_planner import PassPlannerNode
-from hex_control.nodes.plant import PlantNode
-from hex_control.nodes.sequence_planner import SequencePlannerNode
-from hex_control.nodes.synthetic_load import SyntheticLoadNode
+from hex_control.ros.infra.parameters import ParameterError, ParameterSpec, declare_parameters
+from hex_control.ros.nodes.force_controller import ForceControllerNode
+from hex_control.ros.nodes.input_shaper import InputShaperNode
+from hex_control.ros.nodes.kinematics import KinematicsNode
+from hex_control.ros.nodes.load_predictor import LoadPredictorNode
+from hex_control.ros.nodes.pass_planner import PassPlannerNode
+from hex_control.ros.nodes.plant import PlantNode
+from hex_control.ros.nodes.sequence_planner import SequencePlannerNode
+from hex_control.ros.nodes.synthetic_load import SyntheticLoadNode
 
 NODES = (ForceControllerNode, InputShaperNode, KinematicsNode, LoadPredictorNode, PassPlannerNode, PlantNode,
          SequencePlannerNode, SyntheticLoadNode)

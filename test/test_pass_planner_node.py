@@ -15,7 +15,7 @@ from hex_control.config import config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.contour import weld_bead
 from hex_control.grinding.pass_plan import plan_forces
-from hex_control.nodes.interfaces import RESULTS, contour_to_message
+from hex_control.ros.infra.interfaces import RESULTS, contour_to_message
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath
 from hex_control_msgs.srv import TestPose
@@ -145,7 +145,7 @@ def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(planner, comm
 def test_an_oversized_contour_is_refused_at_once_and_the_next_pass_is_planned(planner):
     """A contour past MAX_CONTOUR_POINTS (a 10^6-point one kept the planner busy for minutes)
     is refused in the time of a check; the planner then plans the next command as usual."""
-    from hex_control.nodes.interfaces import MAX_CONTOUR_POINTS
+    from hex_control.ros.infra.interfaces import MAX_CONTOUR_POINTS
 
     publishers, outputs = planner
     n = 2 * MAX_CONTOUR_POINTS

@@ -194,7 +194,7 @@ def test_a_held_strut_trajectory_is_followed_and_a_late_one_refused(ros, spawn):
     from diagnostic_msgs.msg import DiagnosticArray
     from trajectory_msgs.msg import JointTrajectory
 
-    from hex_control.nodes.interfaces import LATCHED, joint_trajectory_message, time_msg
+    from hex_control.ros.infra.interfaces import LATCHED, joint_trajectory_message, time_msg
 
     names = [f"strut_{i}" for i in range(6)]
     ramp = np.repeat(np.linspace(2.60, 2.62, 101)[:, None], 6, axis=1)  # 0.5 s at 5 ms, in stroke
@@ -322,7 +322,7 @@ def test_every_command_input_names_its_owner_by_default(ros, spawn):
     from diagnostic_msgs.msg import DiagnosticArray
 
     from hex_control.config import node_parameters
-    from hex_control.nodes.plant_setup import PARAMETERS
+    from hex_control.ros.nodes.plant_setup import PARAMETERS
 
     owners = {"force_command_owner": "force_controller", "strut_command_owner": "kinematics",
               "force_trajectory_owner": "pass_planner", "controller_status_owner": "force_controller"}

@@ -18,9 +18,9 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rclpy.serialization import serialize_message
 
-from hex_control.nodes.messages import message_class, to_primitive
 from hex_control.recording.bag import BagWriter, bag_info, describe, message_definition, read_messages
 from hex_control.recording.playback import paced, parse_remaps
+from hex_control.ros.infra.messages import message_class, to_primitive
 from ros_harness import wait_until
 
 MSGS = Path(sys.prefix) / "share" / "hex_control_msgs" / "msg"

@@ -21,8 +21,8 @@ from hex_control.grinding.config import load_planner_config
 from hex_control.grinding.contour import weld_bead
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.stochastic import CutDepthModel
-from hex_control.nodes.action_probe import ResponseProbe
-from hex_control.nodes.interfaces import contour_to_message
+from hex_control.ros.infra.action_probe import ResponseProbe
+from hex_control.ros.infra.interfaces import contour_to_message
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 from ros_harness import wait_until

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from hex_control.nodes.interfaces import joint_trajectory_message, strut_trajectory_from_message, time_msg
 from hex_control.plant.strut_trajectory import StrutTrajectory
+from hex_control.ros.infra.interfaces import joint_trajectory_message, strut_trajectory_from_message, time_msg
 
 
 def test_sampled_linearly_and_held_at_both_ends():

@@ -31,7 +31,7 @@ def cpu_s(pid: int) -> float:
 def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s: float, seed: int,
                   reset_time_s: float) -> dict:
     """One job on a fresh graph whose nodes spin on ``executor``; figures of the run."""
-    from hex_control.nodes.grind_job import JobSession
+    from hex_control.ros.app.grind_job import JobSession
 
     with mock.patch.dict(os.environ, HEX_EXECUTOR=executor):  # the graph's processes take it at start
         session = JobSession(output, seed, plant_overrides={"bead_length_mm": bead_length_mm})
@@ -50,7 +50,7 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
 
 @benchmark("graph")
 def graph_case(quick: bool) -> list[str]:
-    from hex_control.nodes.grind_job import calibrate_reset_time
+    from hex_control.ros.app.grind_job import calibrate_reset_time
 
     bead_length_mm, deadline_s, seed = (60.0, 15.0, 7) if quick else (60.0, 30.0, 7)
     reset = calibrate_reset_time(bead_length_mm)["zvd"].reset_time_s

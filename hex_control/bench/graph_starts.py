@@ -21,7 +21,7 @@ from hex_control.bench import benchmark
 def start_graphs(starts: int, folder: Path, progress=None) -> tuple[list[float], dict[int, str]]:
     """Start and stop ``starts`` fresh graphs; (seconds to ready of each ready one,
     {start: what it hung waiting for})."""
-    from hex_control.nodes.grind_job import JobSession
+    from hex_control.ros.app.grind_job import JobSession
 
     ready_s, hung = [], {}
     for index in range(starts):

@@ -18,8 +18,8 @@ from pathlib import Path
 from hex_control.bench import benchmark, best_time
 from hex_control.control.force_law import PIForceLaw
 from hex_control.control.pi import TustinPI
-from hex_control.nodes.graph import stop_hung
 from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
+from hex_control.ros.app.graph import stop_hung
 
 GAINS = ("-p", "kp_mm_per_n:=0.0098", "-p", "ki_mm_per_n_s:=0.48")
 

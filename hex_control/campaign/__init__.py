@@ -15,7 +15,7 @@ depends only on its seed: the graph runs in lock-step).
 A job that fails (its function raises, or its worker dies) is an Outcome with ``error``
 set: counted and reported, its seed listed in ``campaign.json``; the others' statistics
 are written as usual. The grinding job's function is
-:func:`hex_control.nodes.campaign_cell.grind_cell` (it imports rclpy; this package must not).
+:func:`hex_control.ros.app.campaign_cell.grind_cell` (it imports rclpy; this package must not).
 """
 
 from __future__ import annotations

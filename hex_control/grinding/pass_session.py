@@ -1,6 +1,6 @@
 """The pass planner's core (seed 002 ch. 6): which command is planned on which contour,
 and the checks that keep a plan off the parent surface. No ROS here: the node
-(:mod:`hex_control.nodes.pass_planner`) converts messages to :class:`PassRequest` and
+(:mod:`hex_control.ros.nodes.pass_planner`) converts messages to :class:`PassRequest` and
 :class:`Scan`, runs :meth:`PassSession.plan` on a worker thread, asks the kinematics
 node whether the path is reachable, and publishes what a :class:`Verdict` says.
 

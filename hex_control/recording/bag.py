@@ -4,7 +4,7 @@ open. Messages are stored as their CDR bytes (the ``cdr`` message encoding) unde
 of encoding ``ros2msg``: the type's .msg text followed by every type it uses, each after
 a line of 80 '=' and ``MSG: pkg/Type`` (rosbag2_storage_mcap's message definition format).
 
-No ROS here: the bytes come serialized (:mod:`hex_control.nodes.recorder` subscribes raw);
+No ROS here: the bytes come serialized (:mod:`hex_control.ros.tools.recorder` subscribes raw);
 the .msg texts come from the installed interface packages' share directories.
 
 Times are nanoseconds since the epoch (the time each message was received).

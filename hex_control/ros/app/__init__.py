@@ -1,0 +1,2 @@
+"""The applications on the graph: the job session and graph runner (``hexctl demo``), a
+campaign's cell (``hexctl campaign``), the load predictor demo."""

@@ -1,0 +1,199 @@
+"""Node ``pass_planner``: a PassCommand and the latest contour in, the force trajectory and
+the tool path out (seed 002 ch. 6). The behaviour -- which command on which contour, the
+checks against the scan and the parent, the refusals -- is the core
+:class:`hex_control.grinding.pass_session.PassSession`; this node converts messages, plans
+on a worker thread, asks TestPose (``reachability_service``; '' = none) and publishes.
+
+In: /grinding/pass_command (``command_owner``'s), /grinding/contour (``contour_owner``'s). Out:
+/grinding/force_trajectory, /motion/tool_path_raw, ~/status (per command: OK "received", then
+OK/WARN + summary or ERROR + why), /grinding/pass_result (REJECTED + why), /diagnostics.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from rclpy.node import Node
+
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.grinding.pass_session import PassRequest, PassSession, Scan, Verdict, checked_positions, pass_start_s
+from hex_control.kinematics import load_machine
+from hex_control.ros.infra import interfaces as ifc
+from hex_control.ros.infra.diagnostics import Diagnostics
+from hex_control.ros.infra.message_info import info_subscription
+from hex_control.ros.infra.parameters import ParameterSpec as Spec
+from hex_control.ros.infra.parameters import declare_parameters
+from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
+from hex_control_msgs.msg import Contour as ContourMsg
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
+from hex_control_msgs.srv import TestPose
+
+RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
+FAULT_HOLD_S = 10.0  # a refusal or a part-safety change is a WARN this long (wall s)
+
+PARAMETERS = {
+    "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),
+    "contour_wait_s": Spec(5.0, "wall time a command waits for its contour (or the reachability check for "
+                           "its answer) before it is refused", 0.01, 3600.0),
+    "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the path's "
+                          "start (s): the planning time charged between passes", 0.0, 60.0, read_only=False),
+    "reachability_service": Spec("kinematics/test_pose", "TestPose service for every pass's path; '' = none"),
+    "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
+    "command_owner": Spec("sequence_planner", "node whose PassCommands are planned (relative to the namespace); "
+                          "'' = the first heard (hand use)"),
+    "contour_owner": Spec("plant", "node whose contours are planned on; '' = the first heard (hand use)"),
+}
+
+
+class PassPlannerNode(Node):
+    READY_PARAMETERS = ("config", "machine_file")  # in its start-up line
+
+    def __init__(self, **kwargs):
+        super().__init__("pass_planner", **kwargs)
+        declare_parameters(self, PARAMETERS)
+        machine_file = self.get_parameter("machine_file").value
+        self.config = load_pass_planner_config(self.get_parameter("config").value,
+                                               load_machine(machine_file)[1] if machine_file else None)
+        service = self.get_parameter("reachability_service").value
+        self.core = PassSession(self.config, self.get_parameter("contour_wait_s").value, bool(service))
+        self.diagnostics = Diagnostics(self)
+        self.planning = None  # the worker's future
+        self.reach, self.reach_sent_at = None, 0.0  # the pending TestPose future, when it went out (wall s)
+        self.reach_client = self.create_client(TestPose, service) if service else None
+        self.trajectory_pub = self.create_publisher(ForceTrajectory, "grinding/force_trajectory", ifc.LATCHED)
+        self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", ifc.LATCHED)
+        self.result_pub = self.create_publisher(PassResult, "grinding/pass_result", ifc.RESULTS)
+        self.path_pub = self.create_publisher(ToolPath, "motion/tool_path_raw", ifc.LATCHED)
+        info_subscription(self, PassCommand, "grinding/pass_command", self._on_command, ifc.LATCHED, self.diagnostics,
+                          "pass_command", self.get_parameter("command_owner").value)
+        info_subscription(self, ContourMsg, "grinding/contour", self._on_contour, ifc.LATCHED, self.diagnostics,
+                          "contour", self.get_parameter("contour_owner").value)
+        wall_timer(self, 0.02, self._poll)
+
+    def _on_contour(self, msg: ContourMsg) -> None:
+        try:
+            contour, error = ifc.contour_from_message(msg), ""
+        except ValueError as exc:  # refused with the command it was meant for
+            contour, error = None, str(exc)
+        self.core.on_scan(Scan(msg.job_id, msg.pass_index, ifc.stamp_s(msg.header.stamp), msg.bead_width_mm, contour,
+                               error))
+        self.diagnostics.count("contours")
+        self._try_plan()
+
+    def _on_command(self, msg: PassCommand) -> None:
+        request = PassRequest(msg.job_id, int(msg.pass_index), float(msg.cut_depth_mm), float(msg.feed_speed_mm_s),
+                              float(msg.specific_energy_j_mm3), float(msg.normal_force_n), bool(msg.stop))
+        if self.core.in_hand(request):
+            self.diagnostics.count("redelivered")  # latched, or the sequence planner sending it again
+            return
+        self.diagnostics.count("stops" if request.stop else "commands")
+        self.get_logger().info(f"pass {msg.pass_index} of job {msg.job_id!r}: " + ("stop" if request.stop else
+                               f"cut {msg.cut_depth_mm:.4f} mm at {msg.feed_speed_mm_s:.2f} mm/s, "
+                               f"K1 {msg.specific_energy_j_mm3:g} J/mm^3"))
+        if not request.stop:
+            self._status(request, DiagnosticStatus.OK, "received", {})  # the sequence planner's acknowledgement
+        for verdict in self.core.on_command(request, time.monotonic()):  # a transport wait: wall time
+            self._end(verdict)
+        if self.core.checking is None and self.reach is not None:  # its pass was stopped
+            self.reach_client.remove_pending_request(self.reach)
+            self.reach = None
+        self._try_plan()
+
+    def _try_plan(self) -> None:
+        ready = self.core.next_to_plan()
+        if ready is not None:
+            self.planning = in_background(self.core.plan, *ready)
+
+    def _poll(self) -> None:
+        now = time.monotonic()
+        self._end(self.core.expired(now))
+        if self.planning is not None and self.planning.done():
+            future, self.planning = self.planning, None
+            self._end(self.core.planned(future.result(), now))  # None: its path is checked first
+            self._try_plan()
+        if self.core.checking is not None:
+            self._check_reach()
+
+    def _check_reach(self) -> None:
+        """TestPose on the path being checked: sent when the service is ready, again after RESEND_S
+        (Fast DDS drops a response to a client it has not matched yet); given up after contour_wait_s."""
+        name, now = self.reach_client.srv_name, time.monotonic()
+        if self.reach is not None and self.reach.done():
+            future, self.reach = self.reach, None
+            self._end(self.core.reach_answer(future.result().first_unreachable_index))
+            self._try_plan()
+        elif self.core.reach_overdue(now):
+            if self.reach is not None:
+                self.reach_client.remove_pending_request(self.reach)
+            self._end(self.core.reach_failed(f"reachability service {name} "
+                                             + ("did not answer" if self.reach else "unavailable")))
+            self.reach = None
+            self._try_plan()
+        elif self.reach is not None and now - self.reach_sent_at > RESEND_S:
+            self.reach_client.remove_pending_request(self.reach)
+            self.reach = None
+            self.diagnostics.count("reachability_resent")
+        elif self.reach is None and self.reach_client.service_is_ready():
+            roll, pitch, yaw = (float(a) for a in np.radians(self.config.frame.orientation_rpy_deg))
+            poses = [ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
+                     for x, y, z in checked_positions(self.core.checking[1].path)]
+            self.reach, self.reach_sent_at = self.reach_client.call_async(TestPose.Request(poses=poses)), now
+
+    def _end(self, verdict: Verdict | None) -> None:
+        if verdict is None:
+            return
+        self.diagnostics.count(verdict.counter)
+        if verdict.fault:
+            self.diagnostics.fault(*verdict.fault, hold_s=FAULT_HOLD_S)
+        request = verdict.request
+        if verdict.refused:
+            self.get_logger().warn(f"pass {request.pass_index} of job {request.job_id!r} refused: {verdict.reason}")
+            self._status(request, DiagnosticStatus.ERROR, verdict.reason, {})
+            result = PassResult(job_id=request.job_id, pass_index=request.pass_index, status=PassResult.REJECTED,
+                                reason=verdict.reason, specific_energy_j_mm3=math.nan,
+                                part_quality=ifc.part_quality_message(None, math.nan))
+            result.header.stamp = self.get_clock().now().to_msg()
+            self.result_pub.publish(result)
+        else:
+            self._publish(request, verdict.planned)
+
+    def _publish(self, request: PassRequest, planned) -> None:
+        plan, path = planned.plan, planned.path
+        start_s = pass_start_s(planned.contour_s, self.get_clock().now().nanoseconds * 1e-9,
+                               self.get_parameter("start_delay_s").value)
+        msg = ForceTrajectory(job_id=request.job_id, pass_index=request.pass_index,
+                              feed_speed_mm_s=request.feed_mm_s, planned_cut_depth_mm=float(plan.planned_depth_mm),
+                              path_start_s=-float(path.grind_start_s),
+                              path_end_s=float(path.time_s[-1] - path.grind_start_s),
+                              time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
+                              normal_force_n=plan.force_n.tolist(),
+                              planned_final_contour=ifc.contour_to_message(
+                                  plan.final, request.job_id, request.pass_index + 1, planned.process.bead_width_mm))
+        msg.header.stamp = ifc.time_msg(start_s + path.grind_start_s)
+        msg.header.frame_id = "bead"
+        self.trajectory_pub.publish(msg)
+        orientation = np.broadcast_to(np.radians(self.config.frame.orientation_rpy_deg), path.positions_mm.shape)
+        self.path_pub.publish(ifc.tool_path_message(ifc.time_msg(start_s), request.job_id, request.pass_index,
+                                                path.time_s[1] - path.time_s[0],
+                                                np.hstack([path.positions_mm, orientation])))
+        self.get_logger().info(f"pass {request.pass_index} of job {request.job_id!r} planned: "
+                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s "
+                               f"({plan.simulations} simulation{'s' if plan.simulations > 1 else ''})")
+        self._status(request, DiagnosticStatus.WARN if planned.note else DiagnosticStatus.OK,
+                     planned.note or "planned", planned.values)
+
+    def _status(self, request: PassRequest, level: int, message: str, values: dict) -> None:
+        pairs = {"job_id": request.job_id, "pass_index": request.pass_index, **values}
+        self.status_pub.publish(DiagnosticStatus(level=level, name=self.get_fully_qualified_name(), message=message,
+                                                 values=[KeyValue(key=k, value=str(v)) for k, v in pairs.items()]))
+
+
+def main(args=None) -> int:
+    return run_node(PassPlannerNode, args)
+
+
+if __name__ == "__main__":
+    main()

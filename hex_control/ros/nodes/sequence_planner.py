@@ -1,0 +1,198 @@
+"""Node ``sequence_planner``: the top tier -- the GrindBead action, one pass at a time.
+
+The job logic is :class:`hex_control.grinding.sequencer.Sequencer` (what it does and checks);
+this node reads its settings, converts messages, solves policies off the executor thread and
+serves ``~/grind_bead``. A goal is checked at goal response: a refused one gets REJECT, the
+reason in the log and /diagnostics. A resumed job (its client gone) reports on
+``~/job_feedback`` and ``~/job_result``.
+Out: grinding/pass_command (latched). In, each from its one node: grinding/pass_result (plant;
+REJECTED: pass_planner), grinding/contour (plant's scans), grinding/force_trajectory and
+pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from pathlib import Path
+
+import yaml
+from action_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.node import Node
+
+from hex_control.config import config_file
+from hex_control.grinding.sequencer import GoalRequest, PassReport, Sequencer, SequencerSettings
+from hex_control.ros.infra.diagnostics import ERROR, WARN, Diagnostics
+from hex_control.ros.infra.interfaces import LATCHED, RESULTS
+from hex_control.ros.infra.message_info import info_subscription
+from hex_control.ros.infra.parameters import ParameterSpec as Spec
+from hex_control.ros.infra.parameters import declare_parameters
+from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
+from hex_control_msgs.action import GrindBead
+from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
+
+REASONS = {"done": GrindBead.Result.DONE, "quit": GrindBead.Result.QUIT, "cancelled": GrindBead.Result.CANCELLED,
+           "aborted": GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
+D = SequencerSettings(Path())  # the defaults: one source
+PARAMETERS = {
+    "planner_config": Spec(str(config_file("sequence_planner.yaml")), "YAML: charges, grid, cut model"),
+    "job_dir": Spec(os.path.expanduser("~/.local/state/hex_control/jobs"), "the job logs a restart resumes from"),
+    **{name: Spec(getattr(D, name), text, low, high, read_only=not live) for name, text, low, high, live in (
+        ("resolve_threshold", "relative change of K1 or of the force the plans reach that triggers a re-solve",
+         0.0, 10.0, True),
+        ("pass_timeout_s", "wall time to wait for a pass result before aborting the job", 1.0, 86_400.0, True),
+        ("command_resend_s", "wall time after which a pass command the pass planner has not acknowledged on "
+         "/pass_planner/status is published again (a lost delivery); 0 = never", 0.0, 3600.0, True),
+        ("prediction_wait_s", "wall time a decision waits for the K1 prediction from the pass just measured, when "
+         "a predictor publishes; 0 = decide at once", 0.0, 600.0, True),
+        ("max_deadline_s", "longest goal deadline accepted: the policy solve grows with it (40000 s took 152 s and "
+         "1 GB on the executor thread)", 1.0, 86_400.0, False),
+        ("max_material_mm", "highest mean bead height accepted, for the same reason", 0.01, 1000.0, False),
+        ("overdue_factor", "a pass is overdue (WARN; ERROR at 3x) this many times its planned duration plus "
+         "overdue_margin_s (wall s) after its command", 1.0, 1000.0, True),
+        ("overdue_margin_s", "see overdue_factor", 0.0, 3600.0, True),
+        ("goal_length_tolerance_mm", "a goal's bead length off the scanned bead's by more than this (and 2 %) is "
+         "rejected", 0.0, 1000.0, False),
+        ("goal_height_tolerance_mm", "the same for the mean height (and 25 %)", 0.0, 100.0, False),
+        ("max_overgrind_mm", "a result removing more than the material plus this is refused", 0.0, 100.0, False),
+        ("scan_tolerance_mm", "a result's cut off the removal of the plant's scans by more than this is refused",
+         0.0, 10.0, False))},
+}
+
+
+class SequencePlannerNode(Node):
+    READY_PARAMETERS = ("planner_config", "job_dir")  # in its start-up line
+    def __init__(self, **kwargs):
+        super().__init__("sequence_planner", **kwargs)
+        declare_parameters(self, PARAMETERS)
+        self.diagnostics = _Health(self)
+        config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
+        self.core = Sequencer(self._settings(), config, health=self.diagnostics,
+                              log=lambda level, text: getattr(self.get_logger(), level)(text),
+                              predictor_heard=lambda: self.count_publishers("load_predictor/pass/prediction") > 0)
+        self.add_post_set_parameters_callback(lambda _: setattr(self.core, "settings", self._settings()))
+        self.results, self.solving = {}, None  # goal uuid -> its Result; the Future of the policy being solved
+        self.command_pub = self.create_publisher(PassCommand, "grinding/pass_command", LATCHED)
+        # kept (the last 10): an observer matching late (a restart) still learns every pass commanded
+        self.feedback_pub = self.create_publisher(GrindBead.Feedback, "~/job_feedback", RESULTS)
+        self.result_pub = self.create_publisher(GrindBead.Result, "~/job_result", LATCHED)
+        now, core = time.monotonic, self.core
+        # the publisher of a result is not handed to the callback: a REJECTED one is confirmed
+        # by the pass planner's refusal on its status instead (source None)
+        for msg_type, topic, on, qos, name, owner in (
+                (PassResult, "grinding/pass_result", lambda m, source: core.on_result(_report(m), source, now()),
+                 RESULTS, "result", ("plant", "pass_planner")),
+                (Contour, "grinding/contour", lambda m: core.on_scan(
+                    m.job_id, m.pass_index, m.x_mm, m.z_mm, m.parent_mm, m.bead_width_mm, _ns(m.header.stamp),
+                    now()), LATCHED, "contour", "plant"),
+                (DiagnosticStatus, "pass_planner/status", lambda m: core.on_pass_planner_status(*_status(m), now()),
+                 LATCHED, "pass_planner_status", "pass_planner"),
+                (LoadPrediction, "load_predictor/pass/prediction", lambda m: core.on_prediction(
+                    m.prediction, _ns(m.header.stamp), now()), 10, "prediction", "load_predictor/pass"),
+                (ForceTrajectory, "grinding/force_trajectory", lambda m: core.on_trajectory(
+                    m.job_id, m.pass_index, m.normal_force_n, m.planned_cut_depth_mm), LATCHED, "trajectory",
+                 "pass_planner")):
+            info_subscription(self, msg_type, topic, lambda *m, on=on: self._do(on(*m)), qos, self.diagnostics,
+                              name, owner_node=owner, with_source=msg_type is PassResult)
+        self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
+                                   goal_callback=self._on_goal, handle_accepted_callback=lambda handle: self._do(
+                                       self.core.accept(_goal(handle.request), handle, now())),
+                                   cancel_callback=self._on_cancel)
+        wall_timer(self, 1.0, lambda: self._do(self.core.tick(now())))
+        wall_timer(self, 0.02, self._poll_solve)
+        self._do(self.core.resume(now()))
+
+    def _settings(self) -> SequencerSettings:
+        return SequencerSettings(**{f.name: self.get_parameter(f.name).value for f in
+                                    dataclasses.fields(SequencerSettings) if f.name != "job_dir"},
+                                 job_dir=Path(self.get_parameter("job_dir").value))
+
+    def _do(self, out) -> None:
+        """Send what the core decided."""
+        for values, resend in out.commands:
+            command = PassCommand(**{k: v for k, v in values.items() if k != "stamp_ns"})
+            command.header.stamp.sec, command.header.stamp.nanosec = divmod(values["stamp_ns"], 10**9)
+            self.command_pub.publish(command)
+            if not resend:
+                feedback = GrindBead.Feedback(command=command, **{k: values[k] for k in (
+                    "pass_index", "material_remaining_mm", "time_remaining_s", "expected_penalty")})
+                self.feedback_pub.publish(feedback)
+                handle = self.core.token
+                if handle is not None and handle.is_active:
+                    handle.publish_feedback(feedback)
+        if out.solve is not None:
+            self.solving = in_background(self.core.solve, out.solve)
+        if out.finished is not None:
+            handle, values, job_ended = out.finished
+            result = GrindBead.Result(**{**values, "reason": REASONS[values["reason"]]})
+            if job_ended:
+                self.result_pub.publish(result)
+            if handle is not None:
+                self.results[bytes(handle.goal_id.uuid)] = result
+                if handle.status == GoalStatus.STATUS_ACCEPTED:
+                    handle.execute()
+
+    def _poll_solve(self) -> None:
+        if self.solving is None or not self.solving.done():
+            return
+        future, self.solving = self.solving, None
+        self._do(self.core.on_solved(future.exception() or future.result(), time.monotonic()))
+
+    def _on_goal(self, request) -> GoalResponse:
+        try:
+            self.core.check_goal(_goal(request))  # a refusal is counted, logged and in /diagnostics
+            return GoalResponse.ACCEPT
+        except ValueError:
+            return GoalResponse.REJECT
+
+    def _execute(self, goal_handle):
+        result = self.results.pop(bytes(goal_handle.goal_id.uuid))
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        else:
+            (goal_handle.succeed if result.reason in (GrindBead.Result.DONE, GrindBead.Result.QUIT) else
+             goal_handle.abort)()
+        return result
+
+    def _on_cancel(self, goal_handle):
+        out = self.core.cancel(goal_handle)
+        if out is None:
+            return CancelResponse.REJECT
+        self._do(out)  # executes the goal now, so that the cancel can complete it
+        return CancelResponse.ACCEPT
+
+
+class _Health(Diagnostics):  # /diagnostics, taking the core's fault levels ("warn", "error")
+    def fault(self, name: str, message: str, level="warn", hold_s: float | None = None) -> None:
+        super().fault(name, message, {"warn": WARN, "error": ERROR}.get(level, level), hold_s)
+
+
+def _ns(stamp) -> int:
+    return stamp.sec * 1_000_000_000 + stamp.nanosec
+
+
+def _report(m: PassResult) -> PassReport:
+    return PassReport(m.job_id, m.pass_index, m.status, m.reason, m.measured_cut_depth_mm, m.removed_volume_mm3,
+                      m.duration_s, m.specific_energy_j_mm3, m.burn_detected, _ns(m.header.stamp))
+
+
+def _status(m: DiagnosticStatus) -> tuple:
+    values = {pair.key: pair.value for pair in m.values}
+    return values.get("job_id"), values.get("pass_index", ""), m.level == ERROR, m.message
+
+
+def _goal(g) -> GoalRequest:
+    return GoalRequest(g.job_id, tuple(g.bead.x_mm), tuple(g.bead.z_mm), tuple(g.bead.parent_mm),
+                       g.bead.bead_width_mm, g.bead_height_mm, g.bead_width_mm, g.bead_length_mm, g.deadline_s,
+                       g.charges_yaml, g.process_yaml)
+
+
+def main(args=None) -> int:
+    return run_node(SequencePlannerNode, args)
+
+
+if __name__ == "__main__":
+    main()
