@@ -426,12 +426,13 @@ def _workspace(args) -> int:
     from tqdm import tqdm
 
     from hex_control.config import config_path
-    from hex_control.kinematics import StewartGeometry, load_machine
+    from hex_control.kinematics import load_machine
     from hex_control.kinematics.report import workspace_report
 
     geometry, document = load_machine(config_path(args.machine))
-    if not isinstance(geometry, StewartGeometry):
-        raise ValueError("workspace maps are for Stewart machines (seed 000); this machine is a 3-PRU")
+    if not geometry.maps_workspace:
+        raise ValueError(f"workspace maps are for machines with a 6-DOF workspace, as the hexapod of seed 000; "
+                         f"machine {geometry.name!r} ({args.machine}) has none")
     cube = document.get("workspace", {}).get("search_cube_mm")
     if cube is None:
         raise ValueError(f"{args.machine} has no workspace.search_cube_mm section")

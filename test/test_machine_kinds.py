@@ -3,14 +3,18 @@ limits, inverse kinematics of tool poses to joint positions, and a warm-started 
 kinematics of the tool point. The nodes, the tool locator and the reset-time measurement
 ask these and never the machine's type."""
 
+import ast
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from hex_control.config import config_file
-from hex_control.kinematics import MACHINE_TYPES, load_machine
-from hex_control.kinematics.machine_kind import ConstraintCheck
+from hex_control.kinematics import KIND_ALIASES, MACHINE_TYPES, load_machine
+from hex_control.kinematics.machine_kind import CONSTRAINT_SETS, ConstraintCheck
+
+ROOT = Path(__file__).resolve().parent.parent
 
 MACHINES = ["nist_ingersoll", "generic_6_6", "pru3", "pru3_feed"]
 
@@ -54,6 +58,11 @@ class CartesianStage:
     name: str = "cartesian_stage"
     plant_drive = "strut_servos"
     maps_workspace = False
+    constraint_sets = CONSTRAINT_SETS
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        return np.array([0.0, 0.0, 250.0, 0.0, 0.0, 0.0])
 
     @classmethod
     def from_dict(cls, data: dict) -> "CartesianStage":
@@ -201,3 +210,92 @@ def test_the_heads_constraint_sets_agree_with_its_inverse_kinematics(machine_fil
     np.testing.assert_array_equal(check.reachable, reachable)
     too_tilted = np.abs(poses[:, 3]) > machine.tilt_max_rad  # refused by the tilt set, not the strokes'
     assert too_tilted.any() and not check.satisfied[too_tilted, 1].any()
+
+
+@pytest.mark.parametrize("machine_file", MACHINES)
+def test_every_kind_answers_its_home_pose_and_constraint_sets(machine_file):
+    """What the kinematics node asks of any machine: its start is a reachable tool pose
+    and its constraint sets name ConstraintCheck's four columns."""
+    machine, _ = load_machine(config_file(f"machines/{machine_file}.yaml"))
+    home = np.asarray(machine.home_pose, float)
+    assert home.shape == (6,) and machine.joint_positions_mm(home[None])[1].tolist() == [True]
+    assert tuple(machine.constraint_sets) == CONSTRAINT_SETS
+    assert machine.constraint_check(home[None]).satisfied.shape == (1, len(machine.constraint_sets))
+
+
+def test_one_name_per_kind_and_the_former_spelling_still_read():
+    from hex_control.cli import MACHINES
+
+    assert set(MACHINES) <= set(MACHINE_TYPES)  # hexctl demo --machine names kinds as the machine files do
+    data = {"machine": {"type": "pru3"}}
+    assert type(load_machine(data)[0]) is MACHINE_TYPES["pru3"]
+    hexapod_file = dict(load_machine(config_file("machines/nist_ingersoll.yaml"))[1])
+    for kind in ("hexapod", *KIND_ALIASES):
+        document = {**hexapod_file, "machine": {**hexapod_file["machine"], "type": kind}}
+        with (pytest.warns(DeprecationWarning, match="now spelled 'hexapod'") if kind in KIND_ALIASES
+              else _no_warning()):
+            machine, _ = load_machine(document)
+        assert type(machine) is MACHINE_TYPES["hexapod"]
+    with pytest.raises(ValueError, match="unknown machine type 'delta'"):
+        load_machine({"machine": {"type": "delta"}})
+
+
+class _no_warning:
+    def __enter__(self):
+        import warnings
+
+        self._catch = warnings.catch_warnings()
+        self._catch.__enter__()
+        warnings.simplefilter("error")
+
+    def __exit__(self, *exc):
+        return self._catch.__exit__(*exc)
+
+
+#: where a machine kind may be named or tested: the kinematics package and the plant's drives
+MACHINE_MODULES = ("hex_control/kinematics/", "hex_control/plant/drives.py", "hex_control/plant/pru3_machine.py")
+KIND_CLASSES = {"StewartGeometry", "Pru3Geometry", "CartesianStage"}
+
+
+def kind_switches(source: str, kind_names) -> list[str]:
+    """Lines of ``source`` that switch on a machine's kind: isinstance / issubclass / type()
+    against a kind's class, or a comparison (==, !=, in, is) with a kind's class or name."""
+    def names_kind(node) -> bool:
+        if isinstance(node, ast.Name) and node.id in KIND_CLASSES:
+            return True
+        if isinstance(node, ast.Attribute) and node.attr in KIND_CLASSES:
+            return True
+        if isinstance(node, ast.Constant) and node.value in kind_names:
+            return True
+        return isinstance(node, (ast.Tuple, ast.List, ast.Set)) and any(names_kind(e) for e in node.elts)
+
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in (
+                "isinstance", "issubclass") and len(node.args) == 2 and names_kind(node.args[1]):
+            found.append(f"{node.lineno}: {node.func.id}")
+        elif isinstance(node, ast.Compare) and any(names_kind(side) for side in (node.left, *node.comparators)):
+            found.append(f"{node.lineno}: comparison")
+        elif isinstance(node, ast.MatchClass) and names_kind(node.cls):
+            found.append(f"{node.lineno}: match")
+    return found
+
+
+def test_no_code_switches_on_the_machine_kind_outside_the_machine_modules():
+    """Issue 38 item 4: the code asks a machine what it answers (MachineKind), never which
+    kind it is; a new kind is its module, its MACHINE_TYPES entry and its YAML."""
+    kind_names = {*MACHINE_TYPES, *KIND_ALIASES, "cartesian_stage"}
+    offenders = []
+    for path in sorted((ROOT / "hex_control").rglob("*.py")):
+        relative = path.relative_to(ROOT).as_posix()
+        if not relative.startswith(MACHINE_MODULES):
+            offenders += [f"{relative}:{line}" for line in kind_switches(path.read_text(), kind_names)]
+    assert not offenders, offenders
+    # and the scan finds a switch where there is one
+    switches = ("if isinstance(geometry, StewartGeometry): pass\n"
+                "if isinstance(m, (kinematics.Pru3Geometry, int)): pass\n"
+                "ok = options['machine'] == 'hexapod'\n"
+                "ok = kind in ('pru3', 'x')\n"
+                "ok = type(m) is CartesianStage\n"
+                "ok = isinstance(m, dict) and m.maps_workspace and name == 'nist'\n")
+    assert [line.split(":")[0] for line in kind_switches(switches, kind_names)] == ["1", "2", "3", "4", "5"]

@@ -21,4 +21,4 @@ def test_workspace_report(tmp_path, capsys):
 
 def test_workspace_refuses_a_3pru(capsys):
     assert main(["workspace", "--machine", "machines/pru3.yaml"]) == 2
-    assert "3-PRU" in capsys.readouterr().err
+    assert "machine 'pru3_seed001' (machines/pru3.yaml) has none" in capsys.readouterr().err

@@ -2,7 +2,8 @@
 the reset-time measurement ask a machine these and never its type. A new kind is one
 module with a geometry class that has them, its entry in ``MACHINE_TYPES``
 (:mod:`hex_control.kinematics`) and a machine YAML; the plant moves its joints with the
-drive it names (:mod:`hex_control.plant.drives`).
+drive it names (:mod:`hex_control.plant.drives`). Outside the machine modules no code
+switches on a kind's class or name (test/test_machine_kinds.py scans for it).
 
 Units: mm and rad; joint positions in mm (lengths, slider and stage positions).
 """
@@ -13,6 +14,10 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+
+#: the names of the four constraint sets of a ConstraintCheck's columns (seed 000 part 1,
+#: 4.1): joint strokes, platform joints, base joints, strut distances
+CONSTRAINT_SETS = ("I", "II", "III", "IV")
 
 
 @dataclass(frozen=True)
@@ -51,8 +56,13 @@ class ToolTracker(Protocol):
 
 class MachineKind(Protocol):
     name: str
-    plant_drive: str  # the drive that moves its joints in the plant (hex_control.plant.drives.DRIVES)
+    plant_drive: str  # the drive that moves its joints in the plant (hex_control.plant.drives.PLANT_DRIVES)
     maps_workspace: bool  # whether the workspace search (seed 000, a 6-DOF TestPose) applies
+    constraint_sets: tuple[str, ...]  # names of ConstraintCheck's columns (CONSTRAINT_SETS)
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        """The machine's start: a tool pose (6,) (x, y, z mm, roll, pitch, yaw rad)."""
 
     @property
     def joint_names(self) -> list[str]: ...

@@ -29,11 +29,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hex_control.kinematics.machine_kind import ConstraintCheck, JointPositionsFromConstraints
+from hex_control.kinematics.machine_kind import CONSTRAINT_SETS, ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
 _INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
 _PARASITIC = [0, 1, 5]  # x, y, gamma
+HOME_Q = (220.0, 0.0, 0.0)  # the head's start (z mm, alpha, beta rad): the plant's and the home pose
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,14 @@ class Pru3Geometry(JointPositionsFromConstraints):
 
     plant_drive = "pru3_dynamics"
     maps_workspace = False  # x, y are parasitic: the head has no 6-DOF workspace to map
+    constraint_sets = CONSTRAINT_SETS
+
+    @property
+    def home_pose(self) -> np.ndarray:
+        """The start as a tool pose (6,): ``HOME_Q``, the feed stage (if any) at x = 0."""
+        pose = np.zeros(6)
+        pose[_INDEPENDENT] = HOME_Q
+        return pose
 
     def constraint_check(self, poses) -> ConstraintCheck:
         """Strokes (sliders and feed stage) as set I, the tilt limit as set II; the head has

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from hex_control.kinematics.plots import plot_roll_sweep, plot_slices, plot_workspace_3d
-from hex_control.kinematics.stewart import CONSTRAINT_SETS, StewartGeometry
+from hex_control.kinematics.stewart import StewartGeometry
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 
 
@@ -33,7 +33,7 @@ def workspace_report(geometry: StewartGeometry, search_cube_mm, output: Path, ma
         summary["maps"].append({
             "roll_deg": roll, "volume_m3": workspace.volume_mm3 / 1e9,
             "center_mm": workspace.center_mm.round(1).tolist(),
-            "limiting_share": {s: float(c) / counts.sum() for s, c in zip(CONSTRAINT_SETS, counts)}})
+            "limiting_share": {s: float(c) / counts.sum() for s, c in zip(geometry.constraint_sets, counts)}})
         tick()
     plot_slices(output / "slices.png", polygons, heights_mm)
     volumes, centers, areas = [], [], {z: [] for z in heights_mm}

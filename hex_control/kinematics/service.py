@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from hex_control.config import config_file
-from hex_control.kinematics.machine_kind import ConstraintCheck
+from hex_control.kinematics.machine_kind import ConstraintCheck, MachineKind
 from hex_control.kinematics.rotation import rpy_from_quaternion
-from hex_control.kinematics.stewart import CONSTRAINT_SETS, ForwardKinematicsError
+from hex_control.kinematics.stewart import ForwardKinematicsError
 from hex_control.kinematics.workspace import compute_workspace, cross_section
 
 #: poses per IK / TestPose request. Measured on this 2-core machine near idle (kinematics
@@ -93,7 +93,7 @@ class Relay:
 class KinematicsCore:
     """The kinematics node's requests and relays on one machine (``load_machine``'s pair)."""
 
-    def __init__(self, machine, document: dict, settings: KinematicsSettings = KinematicsSettings()):
+    def __init__(self, machine: MachineKind, document: dict, settings: KinematicsSettings = KinematicsSettings()):
         if settings.max_poses < 1 or not settings.quaternion_tolerance > 0:
             raise ValueError(f"max_poses {settings.max_poses} must be >= 1 and quaternion_tolerance "
                              f"{settings.quaternion_tolerance} > 0")
@@ -177,10 +177,10 @@ class KinematicsCore:
         except ValueError as exc:  # e.g. nothing reachable at this orientation
             return WorkspaceAnswer("UNREACHABLE", reason=str(exc))
         areas = tuple(cross_section(self.machine, orientation, z, result.center_mm[:2], 180, eps)[0] for z in heights)
+        sets = self.machine.constraint_sets
         return WorkspaceAnswer("SUCCESS", result.volume_mm3, np.concatenate([result.center_mm, orientation]),
                                result.boundary_mm.reshape(-1, 3),
-                               tuple(CONSTRAINT_SETS[s] if s >= 0 else "" for s in result.limiting_set.ravel()),
-                               areas)
+                               tuple(sets[s] if s >= 0 else "" for s in result.limiting_set.ravel()), areas)
 
     # -- relays to the plant ------------------------------------------------------------------
     def strut_trajectory(self, rows) -> Relay:

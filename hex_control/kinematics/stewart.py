@@ -16,11 +16,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from hex_control.kinematics.machine_kind import ConstraintCheck, JointPositionsFromConstraints
+from hex_control.kinematics.machine_kind import CONSTRAINT_SETS, ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 from hex_control.kinematics.segments import closest_parameters
-
-CONSTRAINT_SETS = ("I", "II", "III", "IV")  # strut length, platform joint, base joint, strut distance
 
 
 def _per_strut(value, name: str) -> np.ndarray:
@@ -86,6 +84,7 @@ class StewartGeometry(JointPositionsFromConstraints):
 
     plant_drive = "strut_servos"
     maps_workspace = True
+    constraint_sets = CONSTRAINT_SETS
 
     @property
     def joint_names(self) -> list[str]:

@@ -35,12 +35,11 @@ from dataclasses import replace
 
 import numpy as np
 
-from hex_control.kinematics.pru3 import Pru3Geometry, forward_kinematics, inverse_kinematics, velocity_jacobian
+from hex_control.kinematics.pru3 import HOME_Q, Pru3Geometry, forward_kinematics, inverse_kinematics, velocity_jacobian
 from hex_control.kinematics.pru3_dynamics import KG_MM_S2_PER_N, Pru3Inertia, generalized_dynamics
 from hex_control.plant.machine import Machine, MachineParameters
 
-HOME_Q = (220.0, 0.0, 0.0)
-DRIVES = ("lspd", "ctc")
+PRU3_SLIDER_DRIVES = ("lspd", "ctc")
 
 
 def effective_slider_mass_kg(geometry: Pru3Geometry, inertia: Pru3Inertia, q=HOME_Q) -> float:
@@ -60,8 +59,8 @@ class Pru3Machine:
                  gains_n_mm: tuple[float, float] | None = None):
         if parameters.struts != 3:
             raise ValueError("the 3-PRU has three sliders")
-        if drive not in DRIVES:
-            raise ValueError(f"drive must be one of {DRIVES}, got {drive!r}")
+        if drive not in PRU3_SLIDER_DRIVES:
+            raise ValueError(f"drive must be one of {PRU3_SLIDER_DRIVES}, got {drive!r}")
         self.refresh_steps = round(refresh_s / step_s)
         if not (step_s > 0 and self.refresh_steps >= 1 and abs(self.refresh_steps * step_s - refresh_s) < 1e-9):
             raise ValueError("refresh_s must be a whole number (>= 1) of step_s > 0")

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hex_control.grinding.tool_path import BeadFrame, PathTiming, pass_tool_path
-from hex_control.kinematics import Pru3Geometry, StewartGeometry
+from hex_control.kinematics.machine_kind import MachineKind
 from hex_control.plant.drives import make_drive
 from hex_control.plant.machine import MachineParameters
 from hex_control.shaping.filter import ShaperFilter
@@ -38,7 +38,7 @@ def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.nda
     return machine.joint_positions_mm(poses)[0] / 1000.0
 
 
-def pass_strut_lengths_m(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
+def pass_strut_lengths_m(machine: MachineKind, frame: BeadFrame, length_mm: float,
                          feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
                          shaper: Shaper | None = None) -> np.ndarray:
     """The strut (or slider and feed) commands (m), one row per path sample, of one pass's
@@ -59,7 +59,7 @@ def pass_strut_lengths_m(machine: StewartGeometry | Pru3Geometry, frame: BeadFra
     return _lengths_m(machine, positions, rpy)
 
 
-def measure_reset_time(machine: StewartGeometry | Pru3Geometry, frame: BeadFrame, length_mm: float,
+def measure_reset_time(machine: MachineKind, frame: BeadFrame, length_mm: float,
                        feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
                        parameters: MachineParameters = MachineParameters(), shaper: Shaper | None = None,
                        settle_mm: float = 0.01, step_s: float = 1e-3, max_settle_s: float = 30.0) -> ResetTime:

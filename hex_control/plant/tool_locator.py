@@ -10,14 +10,14 @@ from __future__ import annotations
 import numpy as np
 
 from hex_control.grinding.tool_path import BeadFrame
-from hex_control.kinematics import Pru3Geometry, StewartGeometry
+from hex_control.kinematics.machine_kind import MachineKind
 
 
 class ToolLocator:
     """``centre_mm(lengths_m, deflection_mm)`` -> (x along the bead, H above it), warm-
     started from the previous pose (the machine moves little in one control period)."""
 
-    def __init__(self, machine: StewartGeometry | Pru3Geometry, frame: BeadFrame):
+    def __init__(self, machine: MachineKind, frame: BeadFrame):
         self.machine, self.frame = machine, frame
         self.tracker = machine.tool_tracker()
 

@@ -79,7 +79,7 @@ class KinematicsNode(Node):
         self.settings = KinematicsSettings(**{name: self.get_parameter(name).value for name in PARAMETERS})
         self.core = KinematicsCore(*load_machine(self.settings.machine_file), self.settings)
         self.diagnostics = Diagnostics(self)
-        self.diagnostics.set("machine", getattr(self.core.machine, "name", "pru3"))
+        self.diagnostics.set("machine", self.core.machine.name)
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
         self._command = self.create_publisher(JointState, "plant/strut_command", 100)
         info_subscription(self, PoseStamped, "motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint",

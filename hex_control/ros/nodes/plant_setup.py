@@ -18,7 +18,7 @@ from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor
-from hex_control.plant.pru3_machine import DRIVES
+from hex_control.plant.pru3_machine import PRU3_SLIDER_DRIVES
 from hex_control.plant.simulator import PlantSimulator
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control.plant.workpiece_store import StoredWorkpiece, load_workpiece
@@ -76,7 +76,7 @@ PARAMETERS = {
                                     "lock-step a pass starts only once it holds the pass; '' = do not wait"),
     "table_start_mm": Spec(-1.0, "table position at start-up", -50.0, 50.0),
     "strut_names": Spec([""], "joint names of the struts; [''] = the kinematics node's for the machine"),
-    "pru3_drive": Spec("lspd", "3-PRU slider drives: link-space PD or computed torque", choices=DRIVES),
+    "pru3_drive": Spec("lspd", "3-PRU slider drives: link-space PD or computed torque", choices=PRU3_SLIDER_DRIVES),
     "table_travel_max_mm": Spec(2.0, "the table's far stop: force commands are clamped to "
                                 "[retract_mm, table_travel_max_mm]", -50.0, 50.0),
     "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
