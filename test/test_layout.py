@@ -8,7 +8,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 ROS_MODULES = ("rclpy", "hex_control_msgs", "std_msgs", "geometry_msgs", "sensor_msgs",
                "diagnostic_msgs", "trajectory_msgs", "rcl_interfaces", "rosgraph_msgs")
-ROS_ALLOWED = ("hex_control/ros/", "hex_control/cli.py")
+ROS_ALLOWED = ("hex_control/ros/",)  # hexctl (hex_control/cli/) loads rclpy only inside a verb
 
 
 def imported_modules(path: Path) -> set[str]:

@@ -46,7 +46,7 @@ def test_sigterm_inside_a_native_callback_still_exits_with_its_code(monkeypatch)
         except SystemExit as exc:  # what pybind11 does to an exception it cannot pass on
             raise TypeError("Unable to convert function return value to a Python type!") from exc
 
-    monkeypatch.setattr(cli, "_shaper", interrupted)
+    monkeypatch.setattr(cli.shaping, "_shaper", interrupted)
     monkeypatch.setattr(cli, "_terminated_by", None)
     previous = signal.getsignal(signal.SIGTERM)
     try:

@@ -1,0 +1,7 @@
+"""python -m hex_control.cli: hexctl."""
+
+import sys
+
+from hex_control.cli import main
+
+sys.exit(main())
