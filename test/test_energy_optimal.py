@@ -63,8 +63,8 @@ def _table_run(law, trajectory, stiction_n):
     from hex_control.plant.force_table import ForceTable, ForceTableParameters, simulate_force_loop
     p = ForceTableParameters(stiction_n=stiction_n, sensor_noise_n=0.3, contact_mm=0.0)
     table = ForceTable(p, step_s=0.001, seed=1)
-    table.reset(10.0 / p.stiffness_n_mm)
-    law.reset(10.0 / p.stiffness_n_mm)
+    table.reset(10.0 / p.stiffness_n_per_mm)
+    law.reset(10.0 / p.stiffness_n_per_mm)
     log = simulate_force_loop(table, law, trajectory, 0.005, 5.0)
     rms = float(np.sqrt(np.mean((log["setpoint"] - log["force"]) ** 2)))
     effort = float(np.sqrt(np.mean(np.diff(log["command"]) ** 2)) / 0.005)  # RMS command speed, mm/s

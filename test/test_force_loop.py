@@ -22,7 +22,7 @@ LINEAR = ForceTableParameters(stiction_n=0.0, contact_mm=-1.0)  # always in cont
 
 def test_compliance_is_k_theta_over_r_squared():
     """Eq. 7.1b: 6e5 N mm/rad on an 85 mm disk is 83.04 N/mm."""
-    assert ForceTableParameters().stiffness_n_mm == pytest.approx(6e5 / 85**2)
+    assert ForceTableParameters().stiffness_n_per_mm == pytest.approx(6e5 / 85**2)
 
 
 def test_position_loop_poles_and_unit_gain():
@@ -44,7 +44,7 @@ def test_linear_closed_loop_matches_python_control():
     step, an error first order in that step: 0.067 N at 1 ms, 0.0067 N at 0.1 ms."""
     period = 0.005
     kp, ki = 0.002, 0.05  # mm/N, mm/(N s)
-    k = LINEAR.stiffness_n_mm
+    k = LINEAR.stiffness_n_per_mm
     b1, b2, w = 2 * math.pi * 9, 2 * math.pi * 40, 2 * math.pi * 30
     table_tf = control.tf([b1 * b2 * k], np.polymul([1, b1], [1, b2]))
     sensor_tf = control.tf([w * w], [1, 2 * 0.707 * w, w * w])
@@ -73,7 +73,7 @@ def test_linear_closed_loop_matches_python_control():
 
 def test_stiction_makes_the_table_hesitate_on_reversal_and_contact_loss_gives_zero_force():
     table = ForceTable(ForceTableParameters(contact_mm=0.0), step_s=1e-3)
-    play = 4.8 / table.p.stiffness_n_mm
+    play = 4.8 / table.p.stiffness_n_per_mm
     for _ in range(500):
         table.step(0.5)
     top = table.position_mm
@@ -97,7 +97,7 @@ def test_runout_is_a_force_at_the_disk_frequency():
     spectrum = np.abs(np.fft.rfft(forces))
     frequency = np.fft.rfftfreq(len(forces), 1e-4)[np.argmax(spectrum)]
     assert frequency == pytest.approx(35.0, abs=0.2)
-    assert np.max(forces) == pytest.approx(p.stiffness_n_mm * 0.02, rel=0.02)
+    assert np.max(forces) == pytest.approx(p.stiffness_n_per_mm * 0.02, rel=0.02)
 
 
 def test_appendix_b_model_has_the_9_hz_pole_of_eq_7_3():
@@ -468,7 +468,7 @@ def test_the_force_controller_node_reads_the_cell_not_the_plant():
     assert not [m for m in modules if m.startswith("hex_control.plant")]
     defaults = {name: spec.default for name, spec in force_controller.PARAMETERS.items()}
     assert defaults["max_force_n"] == cell_value("process.force_max_n") == 60.0
-    assert defaults["stiffness_n_per_mm"] == pytest.approx(ForceTableParameters().stiffness_n_mm)
+    assert defaults["stiffness_n_per_mm"] == pytest.approx(ForceTableParameters().stiffness_n_per_mm)
     assert (defaults["contact_mm"], defaults["overload_n"]) == (0.0, 150.0)
 
 

@@ -66,8 +66,8 @@ LIVE = ("setpoint_timeout_s", "measurement_timeout_s", "ramp_down_s", "feed_forw
 @dataclass(frozen=True, kw_only=True)
 class ForceLoopSettings:
     """What the loop runs with. The physical values have no default here: the node takes
-    them from the cell (config/cell.yaml: F_max, K_x = K_theta / R^2) and the plant's table
-    (config/plant.yaml: contact, overload)."""
+    them from the cell configuration (hex_control.config.CellConfiguration, config/cell.yaml:
+    F_max, K_x = K_theta / R^2, the table's contact and overload trip)."""
 
     cell_force_max_n: float  # F_max of the cell: max_force_n can never exceed it
     max_force_n: float  # the desired force's ceiling (live)

@@ -4,6 +4,8 @@ the pass planner's process, spring, controller, compliance and bead frame.
 The physical values of the cell -- the process and the disk -- are in one file,
 ``config/cell.yaml``, which a planner file names with ``cell:``; its own ``process`` and
 ``disk`` entries (the job's bead, the planning choices, a goal's overrides) go on top.
+The whole cell configuration (with the force table and the machine's structural mode) is
+:class:`hex_control.config.CellConfiguration`.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from dataclasses import dataclass, fields
 
 import yaml
 
-from hex_control.config import config_path
+from hex_control.config import CELL_SECTIONS, config_path
 from hex_control.grinding.dynamic import DiskModel
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.pass_plan import CONTROLS, Compliance
@@ -23,10 +25,10 @@ from hex_control.grinding.tool_path import BeadFrame, PathTiming
 
 
 def load_cell(source="cell.yaml") -> dict:
-    """The cell's physical values (``process``, ``disk``) from a path or a name under config/."""
+    """The cell's physical values (``process``, ``disk``, ``table``) from a path or a name under config/."""
     path = config_path(source)
     data = yaml.safe_load(path.read_text()) or {}
-    unknown = set(data) - {"process", "disk"}
+    unknown = set(data) - set(CELL_SECTIONS)
     if unknown:
         raise ValueError(f"unknown cell sections {sorted(unknown)} in {path}")
     return data

@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hex_control.config import cell_configuration, cell_default
 from hex_control.grinding.contact import DiskPose, clip_below, contact_patch
 from hex_control.grinding.contour import Contour
 from hex_control.grinding.model import GrindingProcess
@@ -59,12 +60,13 @@ from hex_control.grinding.model import GrindingProcess
 
 @dataclass(frozen=True)
 class DiskModel:
-    """The process of the static model plus the rotational spring (K_S 6e5 N mm/rad and
-    theta_0 20 deg are the thesis's test stand, 7.1 and 6.5)."""
+    """The process of the static model plus the rotational spring (K_S and theta_0 default
+    to config/cell.yaml's ``disk``: the thesis's test stand, 7.1 and 6.5)."""
 
     process: GrindingProcess = field(default_factory=GrindingProcess)
-    spring_n_mm_rad: float = 6.0e5
-    relaxed_angle_rad: float = math.radians(20.0)
+    spring_n_mm_rad: float = field(default_factory=cell_default("disk.spring_n_mm_rad"))
+    relaxed_angle_rad: float = field(default_factory=lambda: math.radians(cell_configuration().value(
+        "disk.relaxed_angle_deg")))
     free_swing_s: float = 0.01
     approach_time_constant_s: float = 1 / (2 * math.pi * 9.0) + 1 / (2 * math.pi * 40.0)  # the table, eq. 7.3
 

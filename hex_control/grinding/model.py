@@ -20,18 +20,21 @@ F_N <= C_B sqrt(V_f) (5.11); grinder power <= 80 % of its maximum (stall, 6.6).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
 import yaml
+
+from hex_control.config import cell_default
 
 WATT = 1000.0  # N mm/s per W
 
 
 @dataclass(frozen=True)
 class GrindingProcess:
-    """Process coefficients, bead geometry and machine limits (thesis typical values, 5.5).
+    """Process coefficients, bead geometry and machine limits (thesis typical values, 5.5;
+    the defaults of the cell's values are config/cell.yaml's ``process``).
 
     Attributes (units in the names): ``motor_beta_rad_s_per_n_mm`` is beta of eq. 4.8
     (0 = constant disk speed); ``burn_coefficient`` is C_B [N/sqrt(mm/s)] of eq. 5.11
@@ -39,20 +42,21 @@ class GrindingProcess:
     keeps below ``power_fraction`` of it).
     """
 
-    specific_energy_j_mm3: float = 10.0  # K1
-    wasted_power_w: float = 100.0  # K2
-    bead_width_mm: float = 12.5  # w
-    disk_radius_mm: float = 85.0  # R
-    disk_speed_rad_s: float = 500.0  # omega_0 (80 Hz)
-    friction_coefficient: float = 0.3  # mu
-    motor_beta_rad_s_per_n_mm: float = 0.0  # beta
-    bead_length_mm: float = 300.0  # L
-    reset_time_s: float = 2.0  # t_R
-    force_max_n: float = 60.0
-    feed_min_mm_s: float = 5.0
-    feed_max_mm_s: float = 75.0
+    # the cell's physical values default to config/cell.yaml's (hex_control.config.cell_configuration)
+    specific_energy_j_mm3: float = field(default_factory=cell_default("process.specific_energy_j_mm3"))  # K1
+    wasted_power_w: float = field(default_factory=cell_default("process.wasted_power_w"))  # K2
+    bead_width_mm: float = field(default_factory=cell_default("process.bead_width_mm"))  # w
+    disk_radius_mm: float = field(default_factory=cell_default("process.disk_radius_mm"))  # R
+    disk_speed_rad_s: float = field(default_factory=cell_default("process.disk_speed_rad_s"))  # omega_0
+    friction_coefficient: float = field(default_factory=cell_default("process.friction_coefficient"))  # mu
+    motor_beta_rad_s_per_n_mm: float = field(default_factory=cell_default("process.motor_beta_rad_s_per_n_mm"))
+    bead_length_mm: float = 300.0  # L: the job's (config/sequence_planner.yaml)
+    reset_time_s: float = 2.0  # t_R: the job's
+    force_max_n: float = field(default_factory=cell_default("process.force_max_n"))  # F_max
+    feed_min_mm_s: float = field(default_factory=cell_default("process.feed_min_mm_s"))
+    feed_max_mm_s: float = field(default_factory=cell_default("process.feed_max_mm_s"))
     burn_coefficient: float | None = None  # C_B
-    max_power_w: float = 3000.0
+    max_power_w: float = field(default_factory=cell_default("process.max_power_w"))
     power_fraction: float = 0.8
 
     def __post_init__(self):

@@ -7,7 +7,7 @@
 - Stiction: the DC motor hesitates on direction reversal, equivalent to about 4.8 N of
   normal force (Fig. 7-5). Modelled as a play (backlash) operator on the command of width
   stiction_n / K_x: the servo follows a command only once it has moved that far the other way.
-- Compliance (7.1): K_x = K_theta / R^2 (K_theta = 6e5 N mm/rad, R = 85 mm: 83 N/mm); the
+- Compliance (7.1): K_x = K_theta / R^2 (the cell's 6e5 N mm/rad and 85 mm: 83 N/mm); the
   normal force is K_x (x - x_contact) in contact and zero once contact is lost (8.1).
 - Disk runout (7.3): a force K_x * runout * sin(phase) while in contact, the phase advancing
   at the disk rotation frequency; the air motor slows under load (eq. 4.8, omega = omega_0 -
@@ -19,18 +19,21 @@ Units: mm, N, s. Deterministic for a given seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import cont2discrete, tf2ss
+
+from hex_control.config import cell_default
 
 
 @dataclass(frozen=True)
 class ForceTableParameters:
     pole1_hz: float = 9.0
     pole2_hz: float = 40.0
-    rotational_stiffness_n_mm_rad: float = 6e5
-    disk_radius_mm: float = 85.0
+    # the disk's mount and radius: the cell's (config/cell.yaml disk.spring_n_mm_rad, process.disk_radius_mm)
+    rotational_stiffness_n_mm_rad: float = field(default_factory=cell_default("disk.spring_n_mm_rad"))
+    disk_radius_mm: float = field(default_factory=cell_default("process.disk_radius_mm"))
     stiction_n: float = 4.8
     runout_mm: float = 0.0
     disk_frequency_hz: float = 35.0  # at zero force
@@ -38,12 +41,12 @@ class ForceTableParameters:
     sensor_cutoff_hz: float = 30.0
     sensor_damping: float = 0.707
     sensor_noise_n: float = 0.0
-    contact_mm: float = 0.0  # table position where the disk touches the work
+    contact_mm: float = field(default_factory=cell_default("table.contact_mm"))  # where the disk touches the work
     position_loop: str = "two_pole"  # "two_pole" (eq. 7.3) or "third_order" (eq. 7.2, App. B)
 
     @property
-    def stiffness_n_mm(self) -> float:
-        """K_x = K_theta / R^2 (eq. 7.1b)."""
+    def stiffness_n_per_mm(self) -> float:
+        """K_x = K_theta / R^2 (N/mm, eq. 7.1b)."""
         return self.rotational_stiffness_n_mm_rad / self.disk_radius_mm**2
 
 
@@ -127,14 +130,14 @@ class ForceTable:
         depth = position_mm - (self.p.contact_mm if self.surface_mm is None else self.surface_mm)
         if depth <= 0:
             return 0.0
-        k = self.p.stiffness_n_mm
+        k = self.p.stiffness_n_per_mm
         runout = k * self.p.runout_mm * math.sin(self.disk_phase_rad)
         return max(k * depth + runout, 0.0)
 
     def step(self, command_mm: float) -> None:
         if not math.isfinite(command_mm):
             raise ValueError("the table command must be finite")
-        play = self.p.stiction_n / self.p.stiffness_n_mm
+        play = self.p.stiction_n / self.p.stiffness_n_per_mm
         gap = command_mm - self._servo_command
         if abs(gap) > play:
             self._servo_command = command_mm - math.copysign(play, gap)

@@ -14,10 +14,12 @@ Units: strut lengths and commands in m, the deflection in mm, time in s.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.signal import cont2discrete
+
+from hex_control.config import cell_default
 
 
 @dataclass(frozen=True)
@@ -25,8 +27,9 @@ class MachineParameters:
     struts: int = 6
     servo_frequency_hz: float = 30.0
     servo_damping: float = 0.9
-    mode_frequency_hz: float = 5.0  # the input shaper's default design mode
-    mode_damping: float = 0.02
+    # the structural mode: the machine file's (config/machines/*.yaml structure), the input shaper's design mode
+    mode_frequency_hz: float = field(default_factory=cell_default("structure.mode_frequency_hz"))
+    mode_damping: float = field(default_factory=cell_default("structure.mode_damping"))
     participation: float = 1.0 / 6.0  # p_i: share of each strut's acceleration in the mode
 
 

@@ -58,7 +58,7 @@ def linear_figures(gain_scale: float, rate_hz: float, roll_off: RollOff = RollOf
     period = 1.0 / rate_hz
     num, den = position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz)
     w = 2 * math.pi * parameters.sensor_cutoff_hz
-    table = control.tf(parameters.stiffness_n_mm * np.asarray(num), den)
+    table = control.tf(parameters.stiffness_n_per_mm * np.asarray(num), den)
     sensor = control.tf([w * w], [1, 2 * parameters.sensor_damping * w, w * w])
     loop_plant = control.sample_system(table * sensor, period, method="zoh")
     force_plant = control.sample_system(table, period, method="zoh")
@@ -118,7 +118,7 @@ def simulate(gain_scale: float, rate_hz: float, roll_off: RollOff, setpoint, dur
     period = 1.0 / rate_hz
     substeps = max(1, round(period / step_s))
     table = ForceTable(parameters, step_s=period / substeps, seed=seed)
-    start_mm = parameters.contact_mm + setpoint(0.0) / parameters.stiffness_n_mm
+    start_mm = parameters.contact_mm + setpoint(0.0) / parameters.stiffness_n_per_mm
     table.reset(start_mm)
     kp, ki = (gain_scale * g for g in BASE_GAINS)
     law = PIForceLaw(TustinPI(kp, ki, period, parameters.contact_mm - 2.0, parameters.contact_mm + 2.0),
@@ -148,4 +148,4 @@ def runout_amplification(log: dict, parameters: ForceTableParameters, after_s: f
     t, force = t[keep], force[keep]
     whole = t < t[0] + math.floor((t[-1] - t[0]) * frequency) / frequency  # whole periods only
     amplitude = 2 * abs(np.mean(force[whole] * np.exp(-2j * math.pi * frequency * t[whole])))
-    return float(amplitude / (parameters.stiffness_n_mm * parameters.runout_mm))
+    return float(amplitude / (parameters.stiffness_n_per_mm * parameters.runout_mm))

@@ -34,10 +34,9 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 from std_msgs.msg import Float64
 
-from hex_control.config import node_parameters
+from hex_control.config import cell_configuration
 from hex_control.control.force_law import FORCE_LAWS, ROLL_OFFS
 from hex_control.control.force_loop import LIVE, TRIGGERS, Command, ForceLoop, ForceLoopSettings, Trajectory
-from hex_control.grinding.config import load_cell
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED
 from hex_control.ros.infra.message_info import info_subscription
@@ -46,11 +45,10 @@ from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.runtime import run_node
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, LoadPrediction, PassCommand
 
-_CELL = load_cell()  # F_max, and K_x = K_theta / R^2 (eq. 7.1b): the cell's, config/cell.yaml
-_TABLE = node_parameters("plant.yaml", "plant")  # the force table's contact and overload trip: the plant's
-CELL = {"max_force_n": float(_CELL["process"]["force_max_n"]),
-        "stiffness_n_per_mm": _CELL["disk"]["spring_n_mm_rad"] / _CELL["process"]["disk_radius_mm"] ** 2,
-        "contact_mm": float(_TABLE["contact_mm"]), "overload_n": float(_TABLE["overload_n"])}
+_CELL = cell_configuration()  # config/cell.yaml: the one source of these defaults
+CELL = {"max_force_n": _CELL.force_max_n,  # F_max
+        "stiffness_n_per_mm": _CELL.stiffness_n_per_mm,  # K_x = K_theta / R^2 (eq. 7.1b)
+        "contact_mm": _CELL.value("table.contact_mm"), "overload_n": _CELL.overload_n}  # the plant's trip
 _D = {**{f.name: f.default for f in fields(ForceLoopSettings) if f.default is not MISSING}, **CELL}
 
 
@@ -72,7 +70,7 @@ _MEANINGS = {  # name: (meaning, low, high); the default is the loop's (or the c
     "roll_off_quality": ("quality factor of the roll-off filter", 0.01, 100.0),
     "stiffness_n_per_mm": ("contact stiffness K_x of the energy-optimal law (default: the cell's K_theta / R^2)",
                            1e-3, 1e6),
-    "contact_mm": ("table position at which the disk touches the work (default: the plant's)", -50.0, 50.0),
+    "contact_mm": ("table position at which the disk touches the work (default: the cell's)", -50.0, 50.0),
     "energy_q1": ("energy-optimal law: weight on the force error", 0.0, 1e9),
     "energy_q2": ("energy-optimal law: weight on the rate of the force error", 0.0, 1e9),
     "energy_r": ("energy-optimal law: weight on the command energy", 1e-12, 1e12),
@@ -87,7 +85,7 @@ _MEANINGS = {  # name: (meaning, low, high); the default is the loop's (or the c
                           "reported (WARN) until it comes off the limit", 0.0, 3600.0),
     "max_stamp_step_s": ("trigger measurement: a wrench stamped further than this from the last (backwards or "
                          "ahead) is a clock jump only once the next confirms it", 0.001, 3600.0),
-    "overload_n": ("a measured force above this retracts until the next pass (default: the plant's trip)",
+    "overload_n": ("a measured force above this retracts until the next pass (default: the cell's trip)",
                    1.0, 1e5),
     "overforce_ratio": ("so does one above this times max_force_n for overforce_s", 1.0, 100.0),
     "overforce_s": ("see overforce_ratio", 0.0, 60.0),

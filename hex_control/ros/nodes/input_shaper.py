@@ -32,6 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
+from hex_control.config import cell_configuration
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, stamp_s, time_msg, tool_path_message, tool_path_rows
 from hex_control.ros.infra.message_info import info_subscription
@@ -47,6 +48,7 @@ from hex_control_msgs.msg import ToolPath
 #: of a depth-1 reader queue before it is taken (the burst is refused, the pass left pathless)
 PATHS_IN = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 TYPES = {"pose": PoseStamped, "joint_state": JointState}
+_MODE = cell_configuration()
 SHAPER_PARAMETERS = ("shaper", "frequency_hz", "damping", "vibration_tolerance", "optimized_frequencies_hz")
 PARAMETERS = {
     "input_type": Spec("pose", "message type of the sample stream", choices=tuple(TYPES)),
@@ -57,8 +59,11 @@ PARAMETERS = {
     # the shaper may be changed live (validated, then re-designed off the executor thread)
     "shaper": Spec("zvd", "a closed-form shaper or 'optimized' (a robust design over "
                    "optimized_frequencies_hz)", choices=(*sorted(SHAPERS), "optimized"), read_only=False),
-    "frequency_hz": Spec(5.0, "design frequency of a closed-form shaper (Hz)", 0.01, 1000.0, read_only=False),
-    "damping": Spec(0.02, "design damping ratio of a closed-form shaper", 0.0, 0.99, read_only=False),
+    # the design mode defaults to the machine's structural mode (the machine file's structure)
+    "frequency_hz": Spec(_MODE.value("structure.mode_frequency_hz"), "design frequency of a closed-form shaper "
+                         "(Hz)", 0.01, 1000.0, read_only=False),
+    "damping": Spec(_MODE.value("structure.mode_damping"), "design damping ratio of a closed-form shaper",
+                    0.0, 0.99, read_only=False),
     "vibration_tolerance": Spec(0.05, "residual vibration allowed by the EI shapers (fraction)", 0.0, 0.5,
                                 read_only=False),
     "optimized_frequencies_hz": Spec([4.25, 5.0, 7.5], "modes the optimized shaper is designed over (Hz)",

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hex_control.config import config_file
+from hex_control.config import DEFAULT_MACHINE_FILE, cell_configuration, config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.contour import Contour, weld_bead
 from hex_control.grinding.variation import ProcessVariation
@@ -79,8 +79,8 @@ PARAMETERS = {
     "pru3_drive": Spec("lspd", "3-PRU slider drives: link-space PD or computed torque", choices=PRU3_SLIDER_DRIVES),
     "table_travel_max_mm": Spec(2.0, "the table's far stop: force commands are clamped to "
                                 "[retract_mm, table_travel_max_mm]", -50.0, 50.0),
-    "overload_n": Spec(150.0, "a true normal force above this retracts the table (an overload trip)",
-                       0.0, 1e5),
+    "overload_n": Spec(cell_configuration().overload_n, "a true normal force above this retracts the table "
+                       "(an overload trip; the cell's table.overload_ratio x F_max)", 0.0, 1e5),
     # command ownership (docs/graph.md threat model): one source per input, named relative to the
     # plant's namespace (the cell's); '' = the first publisher heard (only for work by hand)
     "force_command_owner": Spec("force_controller", "node whose force-axis commands the plant obeys"),
@@ -88,7 +88,7 @@ PARAMETERS = {
     "force_trajectory_owner": Spec("pass_planner", "node whose force trajectories announce the passes"),
     "controller_status_owner": Spec("force_controller", "node whose status says which pass it holds"),
     "grinding": Spec(False, "hold a workpiece: a bead ground where the struts put the disk"),
-    "machine_file": Spec(str(config_file("machines/nist_ingersoll.yaml")),
+    "machine_file": Spec(str(config_file(DEFAULT_MACHINE_FILE)),
                          "machine YAML (config/machines/); must match the kinematics node's"),
     "pass_planner_config": Spec("pass_planner.yaml", "nominal process, disk and bead frame of the workpiece"),
     "bead_file": Spec("", "bead CSV x_mm,z_mm[,parent_mm]; '' = a generated bead"),
