@@ -1,5 +1,5 @@
-"""The ROS 2 side of hex_control (the only place that imports rclpy or message types,
-besides ``cli.py``; DESIGN.md section 2), by role:
+"""The ROS 2 side of hex_control (the only place that imports rclpy or message types;
+DESIGN.md section 2), by role:
 
 - :mod:`.nodes`: one module per node: parameters -> settings -> the library's core;
   messages in and out; spin.
