@@ -50,13 +50,7 @@ SCANNED_DATACLASSES = (*PHYSICAL_DATACLASSES, ForceLoopSettings, ForceAxisLimits
 #: the job's, not the cell's: the bead of a job (sequence planner's file, the plant's generated bead)
 JOB = {"bead_length_mm", "reset_time_s", "burn_coefficient", "power_fraction"}
 #: duplicates known and left to files this change could not touch: (name, source) -> what removes it
-PENDING = {
-    ("servo_frequency_hz", "plant.yaml"): "ros/app/grind_job.py calibrate_reset_time reads plant.yaml's",
-    ("servo_damping", "plant.yaml"): "ros/app/grind_job.py calibrate_reset_time reads plant.yaml's",
-    ("mode_frequency_hz", "plant.yaml"): "ros/app/grind_job.py calibrate_reset_time reads plant.yaml's",
-    ("mode_damping", "plant.yaml"): "ros/app/grind_job.py calibrate_reset_time reads plant.yaml's",
-    ("overload_n", "ForceAxisLimits"): "plant/limits.py: a default_factory from the cell's overload_n",
-}
+PENDING: dict = {}
 
 
 def _keys(node, path=()):
@@ -117,11 +111,12 @@ def _number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and value != 0
 
 
-def _written_values() -> dict[str, list[tuple[str, float, str]]]:
+def _written_values(config: Path | None = None) -> dict[str, list[tuple[str, float, str]]]:
     """name -> [(source, value, group)] of every physical number written as a literal: the
     YAML files and the dataclass defaults (a default_factory is not a literal), plus the
     derived values the cell computes. Machine files are one group each (another machine may
-    well have the same mode); everything else is the shipped cell's group."""
+    well have the same mode); everything else is the shipped cell's group. ``config``: a
+    config folder other than the shipped one (its YAML files instead)."""
     physical, found = _physical_names(), {}
 
     def add(name, source, value, group="cell"):
@@ -129,7 +124,7 @@ def _written_values() -> dict[str, list[tuple[str, float, str]]]:
         if name in physical and _number(value):
             found.setdefault(name, []).append((source, float(value), group))
 
-    config = config_file("cell.yaml").parent
+    config = config or config_file("cell.yaml").parent
     for path in sorted(config.glob("*.yaml")) + sorted(config.glob("machines/*.yaml")):
         group = path.name if path.parent.name == "machines" else "cell"
         for keys, value in _leaves(yaml.safe_load(path.read_text()) or {}):
@@ -144,11 +139,10 @@ def _written_values() -> dict[str, list[tuple[str, float, str]]]:
     return found
 
 
-def test_no_physical_quantity_is_written_twice():
-    """Issue 38's acceptance: a physical number written as a default in two places fails,
-    naming both (the shipped YAML files and the library's dataclass defaults)."""
+def _duplicates(written_values: dict) -> tuple[set[str], set]:
+    """The physical values written twice within a group (named), and the PENDING ones met."""
     duplicates, pending = set(), set()
-    for name, written in _written_values().items():
+    for name, written in written_values.items():
         for group in {g for _, _, g in written}:
             # a machine file is compared with the cell's files, not with another machine
             scope = [(s, v) for s, v, g in written if g in (group, "cell")]
@@ -159,16 +153,29 @@ def test_no_physical_quantity_is_written_twice():
                         pending.update(known)
                         if not known:
                             duplicates.add(f"{name} = {value:g} in {source} and {other}")
+    return duplicates, pending
+
+
+def test_no_physical_quantity_is_written_twice():
+    """Issue 38's acceptance: a physical number written as a default in two places fails,
+    naming both (the shipped YAML files and the library's dataclass defaults)."""
+    duplicates, pending = _duplicates(_written_values())
     assert not duplicates, f"physical values written twice: {sorted(duplicates)}"
     stale = set(PENDING) - pending
     assert not stale, f"no longer duplicated, drop from PENDING: {sorted(stale)}"
 
 
-def test_a_duplicate_is_found_and_named():
+def test_a_duplicate_is_found_and_named(tmp_path):
     """The scan can fail: a machine file's mode restated in the plant's file is found."""
+    import shutil
+
+    planted = tmp_path / "config"
+    shutil.copytree(config_file("cell.yaml").parent, planted)
+    plant = planted / "plant.yaml"
+    plant.write_text(plant.read_text().replace("    grinding: true", "    mode_frequency_hz: 5.0\n    grinding: true"))
+    duplicates, _ = _duplicates(_written_values(planted))
+    assert "mode_frequency_hz = 5 in plant.yaml and nist_ingersoll.yaml" in duplicates, duplicates
     found = _written_values()
-    assert ("plant.yaml", 5.0, "cell") in found["mode_frequency_hz"]
-    assert {s for s, _, _ in found["mode_frequency_hz"]} >= {"nist_ingersoll.yaml", "plant.yaml"}
     assert not [s for s, _, _ in found["force_max_n"] if s != "cell.yaml"]  # F_max: the cell's alone
     assert not [s for s, _, _ in found["spring_n_mm_rad"] if s != "cell.yaml"]  # K_theta likewise
 
@@ -221,7 +228,6 @@ def test_every_machine_file_gives_its_structural_mode(tmp_path):
 
 #: ``_n_mm`` is N*mm (a torque or moment, or per N*mm); a stiffness in N/mm is ``_n_per_mm``
 N_MM = re.compile(r"\b([a-z0-9_]+)_n_mm\b")
-N_MM_PENDING = {"gains_n_mm", "kp_n_mm"}  # plant/pru3_machine.py (another change's file): rename to _n_per_mm
 
 
 def test_one_unit_suffix_convention():
@@ -232,6 +238,6 @@ def test_one_unit_suffix_convention():
             continue
         for match in N_MM.finditer(path.read_text()):
             name = match.group(0)
-            if not re.search(r"torque|moment|per_n_mm$", name) and name not in N_MM_PENDING:
+            if not re.search(r"torque|moment|per_n_mm$", name):
                 wrong.append(f"{path.relative_to(REPO)}: {name}")
     assert not wrong, f"_n_mm is N*mm; a stiffness is _n_per_mm: {sorted(set(wrong))}"

@@ -46,7 +46,7 @@ def test_link_space_pd_matches_adaptive_integration_of_the_unheld_dynamics():
     machine = Pru3Machine(drive="lspd")
     q0 = machine.pose_q.copy()
     command_mm = inverse_kinematics(GEOMETRY, TILT_Q).lengths_mm[0]
-    kp, kv = machine.kp_n_mm, machine.kv_n_s_mm
+    kp, kv = machine.kp_n_per_mm, machine.kv_n_s_per_mm
 
     def drive(_t, q, q_dot):
         lengths = inverse_kinematics(GEOMETRY, q).lengths_mm[0]

@@ -25,9 +25,11 @@ Units: strut lengths m (the machine files give mm), table positions mm, force N.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+
+from hex_control.config import cell_configuration
 
 
 @dataclass
@@ -36,7 +38,7 @@ class ForceAxisLimits:
     asked into what the table's servo gets, given the true force (N) the period before."""
 
     travel_mm: tuple[float, float] = (-5.0, 2.0)
-    overload_n: float = 150.0
+    overload_n: float = field(default_factory=lambda: cell_configuration().overload_n)  # N: the cell's trip
     contact_mm: float = 0.0
     tripped: bool = False
     clamped: int = 0  # commands beyond the travel

@@ -56,7 +56,7 @@ class Pru3Machine:
     def __init__(self, geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
                  parameters: MachineParameters = MachineParameters(struts=3, participation=1 / 3),
                  step_s: float = 1e-3, drive: str = "lspd", refresh_s: float = 0.005,
-                 gains_n_mm: tuple[float, float] | None = None):
+                 gains_n_per_mm: tuple[float, float] | None = None):
         if parameters.struts != 3:
             raise ValueError("the 3-PRU has three sliders")
         if drive not in PRU3_SLIDER_DRIVES:
@@ -69,10 +69,10 @@ class Pru3Machine:
             Machine(replace(parameters, struts=1, participation=0.0), step_s)
         self.p = replace(parameters, struts=len(geometry.joint_names))
         self.servo_w = 2 * math.pi * parameters.servo_frequency_hz
-        if gains_n_mm is None:
+        if gains_n_per_mm is None:
             mass = effective_slider_mass_kg(geometry, inertia) / KG_MM_S2_PER_N  # N s^2/mm
-            gains_n_mm = (mass * self.servo_w**2, 2 * parameters.servo_damping * self.servo_w * mass)
-        self.kp_n_mm, self.kv_n_s_mm = (float(g) for g in gains_n_mm)
+            gains_n_per_mm = (mass * self.servo_w**2, 2 * parameters.servo_damping * self.servo_w * mass)
+        self.kp_n_per_mm, self.kv_n_s_per_mm = (float(g) for g in gains_n_per_mm)
         self.reset(np.append(inverse_kinematics(geometry, HOME_Q).lengths_mm[0] / 1000.0, [0.0] * (self.p.struts - 3)))
 
     def reset(self, lengths_m) -> None:
@@ -150,8 +150,8 @@ class Pru3Machine:
         else:  # M q'' = 1000 J^T tau - h, and the drive's bias term J^-T h / 1000 cancels h
             m_gen, _, _ = generalized_dynamics(self.geometry, self.inertia, q, q_dot)
             drive = KG_MM_S2_PER_N * np.linalg.solve(m_gen[0], jac.T)  # q'' per N of slider force
-            f = drive @ np.hstack([-self.kp_n_mm * jac, -self.kv_n_s_mm * jac])
-            g = drive @ np.hstack([self.kp_n_mm * np.eye(3), (-self.kp_n_mm * self._lengths0)[:, None]])
+            f = drive @ np.hstack([-self.kp_n_per_mm * jac, -self.kv_n_s_per_mm * jac])
+            g = drive @ np.hstack([self.kp_n_per_mm * np.eye(3), (-self.kp_n_per_mm * self._lengths0)[:, None]])
         # the mode: y'' = -w_m^2 y - 2 zeta_m w_m y' - p sum(L''), L'' = J q'' + J' q'
         wm, zm, part = 2 * math.pi * self.p.mode_frequency_hz, self.p.mode_damping, self.p.participation
         a = np.zeros((8, 8))

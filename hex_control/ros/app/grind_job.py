@@ -29,7 +29,7 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from hex_control.config import config_file, node_parameters
+from hex_control.config import config_file
 from hex_control.grinding.job import read_goal, read_log, unfinished_logs
 from hex_control.grinding.job_report import JobRecord
 from hex_control.grinding.part_quality import TOLERANCE_MM
@@ -520,15 +520,14 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
                          machine_file: str = "machines/nist_ingersoll.yaml") -> dict:
     """t_R measured on the plant's machine model, with the input shaper's default (ZVD at
     the structural mode) and without: what the sequence planner plans with."""
+    from hex_control.config import load_cell_configuration
     from hex_control.grinding.config import load_pass_planner_config
     from hex_control.kinematics import load_machine
     from hex_control.plant.machine import MachineParameters
     from hex_control.plant.reset_time import measure_reset_time
     from hex_control.shaping.shapers import design
 
-    plant = node_parameters("plant.yaml", "plant")
-    parameters = MachineParameters(**{k: plant[k] for k in ("servo_frequency_hz", "servo_damping",
-                                                              "mode_frequency_hz", "mode_damping")})
+    parameters = MachineParameters(**load_cell_configuration(machine=config_file(machine_file)).structure)
     machine, document = load_machine(config_file(machine_file))
     config = load_pass_planner_config("pass_planner.yaml", document)
     height = config.model.radius_mm * np.sin(config.model.relaxed_angle_rad) + 1.0
