@@ -38,8 +38,8 @@ def test_reduces_vibration_energy_and_respects_the_limits(system):
     controller = EnergyIndexController(m, l, k, bu, q1=np.eye(n) * 1e3, q2=np.zeros((n, n)), r=np.eye(1),
                                        horizon_s=PERIOD, limits=[limit])
     steps = 2000
-    free, _ = simulate(m, l, k, bu, None, q0, PERIOD, steps)
-    controlled, commands = simulate(m, l, k, bu, controller, q0, PERIOD, steps)
+    free, _ = simulate(m, l, k, bu, None, q0=q0, period_s=PERIOD, steps=steps)
+    controlled, commands = simulate(m, l, k, bu, controller, q0=q0, period_s=PERIOD, steps=steps)
     e_free = vibration_energy(m, k, free, PERIOD)
     e_controlled = vibration_energy(m, k, controlled, PERIOD)
     late = slice(steps * 3 // 4, None)

@@ -24,7 +24,7 @@ class LockStepTablePlant:
 
     PERIOD_NS = 5_000_000  # whole nanoseconds: a float stamp 1 ns short of a period fires no timer
 
-    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf, hold_at_s=math.inf,
+    def __init__(self, ros, setpoint_at, silent_from_s=math.inf, restart_at_s=math.inf, *, hold_at_s=math.inf,
                  limits=None):
         self.limits = limits  # the plant's own travel and overload trip (ForceAxisLimits), if given
         self.table = ForceTable(ForceTableParameters(stiction_n=0.0, contact_mm=0.0), step_s=0.001)
@@ -269,7 +269,7 @@ def test_an_answer_lost_before_the_plant_matched_is_given_again(ros):
 
 
 # -- issue 37: what the controller takes, from whom ------------------------------------------
-def _publisher_seen(ros, controller, name: str, msg_type, topic: str, qos):
+def _publisher_seen(ros, controller, name: str, msg_type, topic: str, *, qos):
     """A publisher of node ``name`` on ``topic``, once the controller's graph names its node."""
     publisher = ros.node(name).create_publisher(msg_type, topic, qos)
     wait_until(lambda: any(info.node_name == name for info in controller.get_publishers_info_by_topic(topic)),
@@ -300,9 +300,10 @@ def test_a_force_trajectory_is_taken_only_from_the_planner_for_the_commanded_pas
         Parameter("require_pass_command", value=True), Parameter("trajectory_owner", value="pass_planner")]))
     counters = controller.diagnostics.counters
     status = ros.collect(DiagnosticStatus, "/force_controller/status", LATCHED)
-    rogue = _publisher_seen(ros, controller, "rogue", ForceTrajectory, "/grinding/force_trajectory", LATCHED)
-    planner = _publisher_seen(ros, controller, "pass_planner", ForceTrajectory, "/grinding/force_trajectory", LATCHED)
-    sequencer = _publisher_seen(ros, controller, "sequence_planner", PassCommand, "/grinding/pass_command", LATCHED)
+    rogue = _publisher_seen(ros, controller, "rogue", ForceTrajectory, "/grinding/force_trajectory", qos=LATCHED)
+    planner = _publisher_seen(ros, controller, "pass_planner", ForceTrajectory, "/grinding/force_trajectory",
+                              qos=LATCHED)
+    sequencer = _publisher_seen(ros, controller, "sequence_planner", PassCommand, "/grinding/pass_command", qos=LATCHED)
     rogue.publish(_trajectory(1, 60.0, 200.0))
     wait_until(lambda: counters["foreign_trajectory"] >= 1, 10.0, what="the rogue's trajectory refused")
     planner.publish(_trajectory(1, 20.0, 5.0))  # before its pass command
@@ -352,7 +353,7 @@ def test_a_wrench_from_another_node_is_refused(ros):
     plant.run_until(1.0)
     counters = controller.diagnostics.counters
     foreign = counters["foreign_measurement"]  # the plant's first states, if sent before discovery named it
-    stray = _publisher_seen(ros, controller, "rogue", WrenchStamped, "/plant/wrench", 10)
+    stray = _publisher_seen(ros, controller, "rogue", WrenchStamped, "/plant/wrench", qos=10)
     stray.publish(WrenchStamped(header=Header(stamp=Time(nanoseconds=plant.time_ns + 300_000_000).to_msg())))
     wait_until(lambda: counters["foreign_measurement"] > foreign, 10.0, what="the rogue's wrench refused")
     plant.resume()

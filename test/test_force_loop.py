@@ -284,7 +284,7 @@ def test_negative_stamps_and_malformed_trajectories_are_refused():
 
 
 def pass_trajectory(loop: ForceLoop, start_s: float = 1.0, force_n: float = 20.0, length_s: float = 2.0,
-                    job_id: str = "job", pass_index: int = 0):
+                    job_id: str = "job", *, pass_index: int = 0):
     return loop.on_trajectory(round(start_s * S), [0.0, length_s], [force_n, force_n], job_id, pass_index)
 
 

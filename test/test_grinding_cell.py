@@ -145,8 +145,9 @@ def test_shaping_the_reset_move_shortens_the_reset_time():
     """DESIGN.md 5.4 / 4: the ZVD-shaped reset leaves no ringing to wait for."""
     config = load_pass_planner_config("pass_planner.yaml")
     machine, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))
-    plain = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, config.path)
-    shaped = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, config.path, shaper=design("zvd", 5.0, 0.02))
+    plain = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, timing=config.path)
+    shaped = measure_reset_time(machine, config.frame, 300.0, 20.0, 30.0, timing=config.path, shaper=design("zvd", 5.0,
+                                                                                                            0.02))
     # approach + run-on + run-off + retract + reset: 4.5 s
     nominal = 2 * config.path.approach_s + 2 * config.path.run_on_s + config.path.reset_s
     assert plain.peak_deflection_mm > 0.01 and plain.settle_s > 1.0

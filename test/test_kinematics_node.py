@@ -127,7 +127,7 @@ def test_compute_workspace_matches_the_library(client):
     request = ComputeWorkspace.Request(sector_count=1250, slice_heights_mm=[-2100.0, -9000.0])
     response = client("compute_workspace", request)
     assert response.error_code.val == Code.SUCCESS
-    library = compute_workspace(NIST, (0.0, 0.0, 0.0), NIST_DOC["workspace"]["search_cube_mm"], 50, 25, 1.0)
+    library = compute_workspace(NIST, (0.0, 0.0, 0.0), NIST_DOC["workspace"]["search_cube_mm"], 50, 25, eps_mm=1.0)
     assert response.volume_mm3 == pytest.approx(library.volume_mm3, rel=1e-12)
     assert len(response.boundary_x_mm) == len(response.limiting_constraint) == 26 * 50
     assert set(response.limiting_constraint) == {"I", "III"}

@@ -61,7 +61,7 @@ def test_workspace_matches_the_library_and_refuses_bad_requests():
     from hex_control.kinematics.workspace import compute_workspace
 
     answer = CORE.workspace((0.0, 0.0, 0.0), [-2100.0, -9000.0], 1250)
-    library = compute_workspace(NIST, (0.0, 0.0, 0.0), NIST_DOC["workspace"]["search_cube_mm"], 50, 25, 1.0)
+    library = compute_workspace(NIST, (0.0, 0.0, 0.0), NIST_DOC["workspace"]["search_cube_mm"], 50, 25, eps_mm=1.0)
     assert answer.outcome == "SUCCESS" and answer.volume_mm3 == pytest.approx(library.volume_mm3, rel=1e-12)
     assert answer.boundary_mm.shape == (26 * 50, 3) and set(answer.limiting_constraint) == {"I", "III"}
     assert answer.slice_area_mm2[0] > 1e6 and answer.slice_area_mm2[1] == 0.0

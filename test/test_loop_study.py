@@ -55,7 +55,8 @@ def test_simulated_runout_amplification_matches_the_linear_loop():
     the linear prediction, for the fast plain loop (x1.9) and the notched loop (x1.0)."""
     table = replace(grinding_table(), disk_frequency_hz=22.0, disk_slowdown_hz_per_n=0.0, stiction_n=0.0)
     for gain, roll_off in ((10.0, RollOff()), (6.2, NOTCH)):
-        simulated = runout_amplification(simulate(gain, RATE_HZ, roll_off, lambda _t: 20.0, 6.0, table), table)
+        simulated = runout_amplification(simulate(gain, RATE_HZ, roll_off, lambda _t: 20.0, 6.0, parameters=table),
+                                         table)
         linear = linear_figures(gain, RATE_HZ, roll_off, band_hz=(21.95, 22.05)).runout_gain
         print(f"\ngain {gain} {roll_off.kind}: simulated x{simulated:.2f}, linear x{linear:.2f}")
         assert simulated == pytest.approx(linear, rel=0.05)
@@ -66,7 +67,8 @@ def test_stiction_absorbs_small_runout_commands():
     mm), so the fast loop's runout amplification largely disappears in simulation (x1.1
     instead of x1.9) -- the thesis's stiction and runout troubles interact."""
     table = replace(grinding_table(), disk_frequency_hz=22.0, disk_slowdown_hz_per_n=0.0)
-    amplification = runout_amplification(simulate(10.0, RATE_HZ, RollOff(), lambda _t: 20.0, 6.0, table), table)
+    amplification = runout_amplification(simulate(10.0, RATE_HZ, RollOff(), lambda _t: 20.0, 6.0, parameters=table),
+                                         table)
     print(f"\nwith stiction: x{amplification:.2f}")
     assert amplification < 1.2
 
@@ -78,8 +80,8 @@ def test_notch_tracks_the_thesis_step_and_ramp_far_better_than_the_0_2_hz_loop()
     table = grinding_table()
     notch_gain = usable_bandwidth(RATE_HZ, NOTCH).gain_scale
     for name, trajectory in (("step", thesis_step), ("ramp", thesis_ramp)):
-        slow_mean, slow_ripple = mean_force_rms(simulate(0.3, RATE_HZ, RollOff(), trajectory, 5.0, table))
-        fast_mean, fast_ripple = mean_force_rms(simulate(notch_gain, RATE_HZ, NOTCH, trajectory, 5.0, table))
+        slow_mean, slow_ripple = mean_force_rms(simulate(0.3, RATE_HZ, RollOff(), trajectory, 5.0, parameters=table))
+        fast_mean, fast_ripple = mean_force_rms(simulate(notch_gain, RATE_HZ, NOTCH, trajectory, 5.0, parameters=table))
         print(f"\n{name}: 0.2 Hz loop mean-force RMS {slow_mean:.2f} N, ripple {slow_ripple:.2f} N; "
               f"notch mean-force RMS {fast_mean:.2f} N, ripple {fast_ripple:.2f} N")
         assert fast_mean < 0.3 * slow_mean

@@ -128,8 +128,9 @@ def test_optimal_linear_programme_rises_by_eq_18_and_falls_linearly(case):
     """Eq. 18 with eq. 10's limit raises the speed (the seed: it would grow without end); at
     n_max it ramps down linearly to n0 and the optimal command resumes."""
     o = case.optimal
-    programme = OptimalLinearSpeed(case.modes, case.cut, case.low_rpm, 15600.0, 0.2, o["acceleration_rpm_s"],
-                                   o["q1"], o["q2"], o["r"], o["control_period_s"])
+    programme = OptimalLinearSpeed(case.modes, case.cut, case.low_rpm, 15600.0, fall_s=0.2,
+                                   acceleration_rpm_s=o["acceleration_rpm_s"],
+                                   q1=o["q1"], q2=o["q2"], r=o["r"], control_period_s=o["control_period_s"])
     record = run_programme(case, "optimal-linear", programme).record
     speed, dt = record.speed_rpm, record.step_s
     assert speed.min() >= case.low_rpm and speed.max() == pytest.approx(15600.0)

@@ -115,8 +115,8 @@ def test_the_force_is_planned_with_the_commands_k1(planner):
     for value in (config.model.process.specific_energy_j_mm3, 15.0):
         model = dataclasses.replace(config.model, process=dataclasses.replace(
             config.model.process, specific_energy_j_mm3=value, bead_width_mm=12.5))
-        plan = plan_forces(BEAD, model, 0.3, 5.0, config.planner, config.control, config.gains, config.step_mm,
-                           config.compliance)
+        plan = plan_forces(BEAD, model, 0.3, 5.0, config.planner, control=config.control, gains=config.gains,
+                           step_mm=config.step_mm, compliance=config.compliance)
         assert plan.reason == ""
         forces[value] = plan.force_n
     np.testing.assert_allclose(trajectory.normal_force_n, forces[15.0], rtol=1e-9)

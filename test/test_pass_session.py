@@ -28,7 +28,7 @@ BEAD = weld_bead(length_mm=30.0, height_mm=1.0, end_ramp_mm=6.0, ripple_mm=0.05,
 WIDTH = 12.5
 
 
-def _request(pass_index=0, depth=0.2, feed=20.0, job="job-a", specific_energy_j_mm3=0.0, force=45.0):
+def _request(pass_index=0, depth=0.2, feed=20.0, job="job-a", specific_energy_j_mm3=0.0, *, force=45.0):
     return PassRequest(job, pass_index, depth, feed, specific_energy_j_mm3, force)
 
 
@@ -53,8 +53,8 @@ def _model(specific_energy_j_mm3=None):
 
 def _direct(contour, depth, feed, specific_energy_j_mm3=None):
     """plan_forces as the node called it before the core (the happy path's reference)."""
-    return plan_forces(contour, _model(specific_energy_j_mm3), depth, feed, CONFIG.planner, CONFIG.control,
-                       CONFIG.gains, CONFIG.step_mm, CONFIG.compliance)
+    return plan_forces(contour, _model(specific_energy_j_mm3), depth, feed, CONFIG.planner, control=CONFIG.control,
+                       gains=CONFIG.gains, step_mm=CONFIG.step_mm, compliance=CONFIG.compliance)
 
 
 # -- which command on which contour ---------------------------------------------------------

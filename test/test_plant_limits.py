@@ -130,8 +130,8 @@ def test_the_planned_paths_stay_well_inside_the_machine_files_joint_limits(machi
     machine, document = load_machine(config_file(f"machines/{machine_file}.yaml"))
     config = load_pass_planner_config("pass_planner.yaml", document)
     height_mm = config.model.radius_mm * math.sin(config.model.relaxed_angle_rad) + 1.0
-    lengths = pass_strut_lengths_m(machine, config.frame, bead_mm, feed_mm_s, height_mm, config.path,
-                                   design("zvd", 5.0, 0.02) if shaped else None)
+    lengths = pass_strut_lengths_m(machine, config.frame, bead_mm, feed_mm_s, height_mm, timing=config.path,
+                                   shaper=design("zvd", 5.0, 0.02) if shaped else None)
     period_s = config.path.sample_period_s
     speed = np.diff(lengths, axis=0) / period_s * 1000.0
     acceleration = np.diff(speed, axis=0) / period_s

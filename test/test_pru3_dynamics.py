@@ -108,7 +108,8 @@ def test_off_centre_configuration_with_an_external_wrench_balances_statically():
     power of tau equals minus that of the loads for any virtual motion."""
     q = np.array([[200.0, 0.2, -0.1]])
     force, moment = np.array([3.0, -2.0, 15.0]), np.array([100.0, 50.0, -20.0])
-    tau = inverse_dynamics(GEOMETRY, INERTIA, q, np.zeros((1, 3)), np.zeros((1, 3)), force, moment)[0]
+    tau = inverse_dynamics(GEOMETRY, INERTIA, q, np.zeros((1, 3)), np.zeros((1, 3)), external_force_n=force,
+                           external_moment_n_mm=moment)[0]
     lengths = lambda x: inverse_kinematics(GEOMETRY, x).lengths_mm[0]  # noqa: E731
     for direction in np.eye(3):
         h = 1e-5
@@ -143,7 +144,7 @@ def test_inverse_torques_drive_the_forward_dynamics_along_the_trajectory():
     def torque(t, _q, _q_dot):
         return inverse_dynamics(GEOMETRY, INERTIA, *seed_trajectory(t))[0]
 
-    times, q, _ = simulate(GEOMETRY, INERTIA, q0, q_dot0, torque, 0.2, sample_s=0.01, rtol=1e-8, atol=1e-9)
+    times, q, _ = simulate(GEOMETRY, INERTIA, q0, q_dot0, torque, duration_s=0.2, sample_s=0.01, rtol=1e-8, atol=1e-9)
     error = np.abs(q - seed_trajectory(times)[0]).max(axis=0)
     assert error[0] < 1e-6 and np.all(error[1:] < 1e-7)  # mm, rad
 
@@ -166,7 +167,7 @@ def test_integrated_forward_dynamics_balances_work_and_energy():
     def torque(t, _q, _q_dot):  # N: the static hold plus a +-4 N wobble per slider
         return hold + 4.0 * np.sin(2 * math.pi * 3.0 * t + phases)
 
-    times, q, q_dot = simulate(GEOMETRY, INERTIA, q0, np.zeros(3), torque, 0.3, sample_s=1e-4,
+    times, q, q_dot = simulate(GEOMETRY, INERTIA, q0, np.zeros(3), torque, duration_s=0.3, sample_s=1e-4,
                                rtol=1e-10, atol=1e-10)
     slider_speeds = np.einsum("nij,nj->ni", velocity_jacobian(GEOMETRY, q), q_dot)  # mm/s
     power = np.einsum("ni,ni->n", np.array([torque(t, None, None) for t in times]), slider_speeds)  # N mm/s

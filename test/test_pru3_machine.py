@@ -53,7 +53,8 @@ def test_link_space_pd_matches_adaptive_integration_of_the_unheld_dynamics():
         _, bias = actuator_dynamics(GEOMETRY, INERTIA, q, q_dot)
         return kp * (command_mm - lengths) - kv * velocity_jacobian(GEOMETRY, q)[0] @ q_dot + bias[0]
 
-    times, q_ref, _ = simulate(GEOMETRY, INERTIA, q0, np.zeros(3), drive, 0.1, sample_s=0.005, rtol=1e-9, atol=1e-9)
+    times, q_ref, _ = simulate(GEOMETRY, INERTIA, q0, np.zeros(3), drive, duration_s=0.1, sample_s=0.005, rtol=1e-9,
+                               atol=1e-9)
     reference_mm = inverse_kinematics(GEOMETRY, q_ref).lengths_mm
     lengths, _ = _run(machine, command_mm / 1000.0, 100)
     held_mm = np.vstack([machine_start_mm(q0), lengths[4::5] * 1000.0])

@@ -273,7 +273,7 @@ def test_monte_carlo_jobs_cost_what_the_policy_expects(t0, x0):
 
     policy = solve(PROCESS, Charges(), PlannerGrid(material_states=1201))
     rng = np.random.default_rng(1)
-    charges = np.array([run_job(policy, PROCESS, Charges(), CutDepthModel(), t0, x0, rng).total_charge
+    charges = np.array([run_job(policy, PROCESS, Charges(), CutDepthModel(), t0, material_mm=x0, rng=rng).total_charge
                         for _ in range(2000)])
     standard_error = charges.std() / math.sqrt(len(charges))
     assert abs(charges.mean() - policy.expected_penalty(t0, x0)) < 3 * standard_error + 0.005
@@ -297,7 +297,8 @@ def test_the_shipped_planner_expects_what_its_jobs_cost():
     t0, x0 = 60.0, 0.936
     policy = solve(process, charges, grid.covering(t0, x0), cut_model)
     rng = np.random.default_rng(1)
-    costs = np.array([run_job(policy, process, charges, cut_model, t0, x0, rng).total_charge for _ in range(3000)])
+    costs = np.array([run_job(policy, process, charges, cut_model, t0, material_mm=x0,
+                              rng=rng).total_charge for _ in range(3000)])
     standard_error = costs.std() / math.sqrt(len(costs))
     assert abs(costs.mean() - policy.expected_penalty(t0, x0)) < 3 * standard_error + 0.02
 

@@ -77,8 +77,9 @@ class Rig:
 
     def scan(self, passes, job_id="job", stamp_ns=None):
         contour = self.bead
-        return self.do(self.core.on_scan(job_id, passes, contour.x_mm, contour.z_mm, contour.parent_mm, 12.5,
-                                         self.stamp_ns if stamp_ns is None else stamp_ns, self.now))
+        return self.do(self.core.on_scan(job_id, passes, contour.x_mm, contour.z_mm, parent_mm=contour.parent_mm,
+                                         width_mm=12.5,
+                                         stamp_ns=self.stamp_ns if stamp_ns is None else stamp_ns, now_s=self.now))
 
     def result(self, command=None, cut=None, status=COMPLETED_PASS, source=None, scan=True, **values):
         """Answer ``command`` (the latest) with a drawn cut (or ``cut``); the plant scans first."""

@@ -18,9 +18,9 @@ def test_itae_definition():
 
 
 def test_tuned_gains_beat_the_initial_ones_and_stay_stable():
-    before = step_itae(0.002, 0.05, LINEAR, 0.005, 20.0, 3.0)
+    before = step_itae(0.002, 0.05, LINEAR, 0.005, 20.0, duration_s=3.0)
     kp, ki, after = tune_pi_itae(LINEAR, 0.005, 20.0, 3.0)
     assert after < 0.5 * before
     assert kp > 0 and ki > 0
     # the tuned loop still settles: the ITAE over twice the time grows only a little
-    assert step_itae(kp, ki, LINEAR, 0.005, 20.0, 6.0) < 1.5 * after
+    assert step_itae(kp, ki, LINEAR, 0.005, 20.0, duration_s=6.0) < 1.5 * after

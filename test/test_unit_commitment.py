@@ -372,13 +372,13 @@ def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monke
     fleet, day, table = _small_day()
     plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
     scheduler = online.OnlineScheduler(fleet, table, plan, day.storage,
-                                       OneStepPredictor(GaussMarkovModel(0.8, 7e-5, 4e-6)))
+                                       predictor=OneStepPredictor(GaussMarkovModel(0.8, 7e-5, 4e-6)))
     incumbent, t = list(plan.schedule.commitments), 10
     assert not incumbent[t][0]  # unit 0 is off all day in the plan
     scheduler.down = hours_down(incumbent[t - 1], len(fleet))  # units 0 and 1 down since the day began
     needless_start = [(True,) + incumbent[t][1:]] + incumbent[t + 1:]  # on now (464 a start), off again
     for proposal, kept in ((needless_start, incumbent[t:]), (incumbent[t:], incumbent[t:])):
-        monkeypatch.setattr(online, "search_commitments", lambda *_: DaySchedule(proposal, 0.0, 0.0))
+        monkeypatch.setattr(online, "search_commitments", lambda *_, **__: DaySchedule(proposal, 0.0, 0.0))
         ranked, later = scheduler._ranked(t, day.demand_mw, incumbent[t - 1], incumbent)
         assert [ranked[0]] + later == kept
     assert scheduler._rest_of_day_cost(needless_start, day.demand_mw[t:]) > \
@@ -410,7 +410,7 @@ def test_the_replan_prices_a_commitment_a_few_mw_short_at_what_the_store_makes_u
     assert held.running_cost == pytest.approx(expected)
     # beyond the store's reach it is still refused
     too_little = generation - 0.5, generation + 0.5
-    assert search_commitments(fleet, generation, options, down, too_little, 12.0).commitments[1] == both
+    assert search_commitments(fleet, generation, options, down, too_little, energy_price=12.0).commitments[1] == both
 
 
 def test_a_unit_dear_to_start_again_is_stopped_only_where_the_demand_surely_goes_without_it():
@@ -433,7 +433,7 @@ def test_a_unit_dear_to_start_again_is_stopped_only_where_the_demand_surely_goes
     both, base = [(True, True)] * 5, [(True, False)] * 5
     for variance, pays in ((1e-8, True), (1e-2, False)):
         predictor = OneStepPredictor(GaussMarkovModel(0.9, variance * (1 - 0.81), 1e-8))
-        scheduler = OnlineScheduler(fleet, table, plan, no_store, predictor)
+        scheduler = OnlineScheduler(fleet, table, plan, no_store, predictor=predictor)
         assert scheduler._stopping_pays(1, base, both, (True, True)) is pays, variance
         ranked, later = scheduler._ranked(1, demand, (True, True), [(True, True)] + both)
         assert ([ranked[0]] + later == base) is pays
@@ -453,7 +453,8 @@ def test_demand_beyond_the_committed_units_starts_the_cheapest_unit_that_meets_i
     fleet, day, table = _small_day()
     store = Storage(-10.0, 10.0)
     plan = deterministic_schedule(fleet, day.demand_mw, store, table)
-    scheduler = OnlineScheduler(fleet, table, plan, store, OneStepPredictor(GaussMarkovModel(0.0, 1e-6, 1e-6)))
+    scheduler = OnlineScheduler(fleet, table, plan, store, predictor=OneStepPredictor(GaussMarkovModel(0.0, 1e-6,
+                                                                                                       1e-6)))
     surge = np.zeros(24)
     surge[12] = 0.15
     result = scheduler.run_day(surge, surge)
@@ -482,7 +483,7 @@ def test_on_line_the_predictable_load_costs_less_than_the_random_one():
     plan = deterministic_schedule(fleet, day.demand_mw, store, table)
     increases = {}
     for kind in ("uniform", "gauss_markov"):
-        result = compare_online(fleet, table, plan, store, LoadFluctuation(kind), 24, np.random.default_rng(7))
+        result = compare_online(fleet, table, plan, store, LoadFluctuation(kind), days=24, rng=np.random.default_rng(7))
         values = result.over_hindsight
         increases[kind] = (values.mean(), values.std(ddof=1) / math.sqrt(values.size))
         assert result.unplanned_hours == 0

@@ -29,7 +29,7 @@ def cpu_s(pid: int) -> float:
 
 
 def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s: float, seed: int,
-                  reset_time_s: float) -> dict:
+                  *, reset_time_s: float) -> dict:
     """One job on a fresh graph whose nodes spin on ``executor``; figures of the run."""
     from hex_control.ros.app.grind_job import JobSession
 
@@ -59,7 +59,7 @@ def graph_case(quick: bool) -> list[str]:
     with tempfile.TemporaryDirectory() as folder:
         for executor in ("events", "single"):
             run = runs[executor] = run_graph_job(Path(folder) / executor, executor, bead_length_mm, deadline_s,
-                                                 seed, reset)
+                                                 seed, reset_time_s=reset)
             rate = run["sim_s"] / run["wall_s"]
             lines.append(f"{executor:>6} executor: {run['sim_s']:.1f} simulated s in {run['wall_s']:.1f} wall s = "
                          f"{rate:.2f} simulated s per wall s ({rate / PER_SAMPLE_FLOW:.1f}x the per-sample flow's "

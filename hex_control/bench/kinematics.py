@@ -39,7 +39,7 @@ def ik_throughput(quick: bool) -> list[str]:
             f"ratio: {rate / loop_rate:.0f}x   (target >= 1,000,000 poses/s)"]
 
 
-def _seed_style_boundary(geometry, orientation, center, directions, eps_mm, rho_max_mm):
+def _seed_style_boundary(geometry, orientation, center, directions, eps_mm, *, rho_max_mm):
     """The seed's pseudocode as written: one direction at a time, one TestPose per step."""
     rho = np.empty(directions.shape[:-1])
     for index in np.ndindex(rho.shape):
@@ -59,18 +59,18 @@ def _seed_style_boundary(geometry, orientation, center, directions, eps_mm, rho_
 def workspace_speed(quick: bool) -> list[str]:
     geometry, cube = _nist()
     level = (0.0, 0.0, 0.0)
-    one_map = best_time(lambda: compute_workspace(geometry, level, cube, 50, 24, 1.0), repeat=3)
+    one_map = best_time(lambda: compute_workspace(geometry, level, cube, 50, 24, eps_mm=1.0), repeat=3)
     center = find_center(geometry, level, cube)
     _, _, directions = sphere_directions(50, 24)
     subset = directions[:, :5] if not quick else directions[:, :1]  # the loop is slow: time part of it
     start = time.perf_counter()
-    _seed_style_boundary(geometry, level, center, subset, 1.0, 2 * geometry.strut_length_max_mm)
+    _seed_style_boundary(geometry, level, center, subset, 1.0, rho_max_mm=2 * geometry.strut_length_max_mm)
     loop_per_direction = (time.perf_counter() - start) / subset[..., 0].size
     loop_map = loop_per_direction * directions[..., 0].size
     rolls = np.radians(np.arange(0, 31, 1))
     start = time.perf_counter()
     for roll in rolls[: 4 if quick else None]:
-        compute_workspace(geometry, (roll, 0.0, 0.0), cube, 50, 24, 1.0)
+        compute_workspace(geometry, (roll, 0.0, 0.0), cube, 50, 24, eps_mm=1.0)
     sweep = (time.perf_counter() - start) * (len(rolls) / (4 if quick else len(rolls)))
     return [f"1200-sector map (50 x 24), eps = 1 mm, centre search included: {one_map * 1000:.0f} ms "
             f"(target < 200 ms)",

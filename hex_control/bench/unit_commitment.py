@@ -44,7 +44,7 @@ def unit_commitment_speed(quick: bool) -> list[str]:
     rng = np.random.default_rng(0)
     fluctuation = LoadFluctuation("gauss_markov")
     predictor, _ = identified_predictor(fluctuation, 80 * 24, rng)
-    scheduler = OnlineScheduler(fleet, table, plan, day.storage, predictor)
+    scheduler = OnlineScheduler(fleet, table, plan, day.storage, predictor=predictor)
     hours = 6 if quick else 24
     e, y = fluctuation.draw(24, rng)
     _, online_s = _seconds(lambda: scheduler.run_day(e, y))

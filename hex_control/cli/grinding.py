@@ -84,7 +84,7 @@ def _pass(args) -> int:
     contour = Contour.from_csv(args.contour) if args.contour else \
         weld_bead(args.length, args.height, ripple_mm=args.ripple, seed=args.seed)
     model = config.model
-    plan = plan_pass(contour, model, args.depth, args.feed, args.control or config.control, config.step_mm,
+    plan = plan_pass(contour, model, args.depth, args.feed, args.control or config.control, step_mm=config.step_mm,
                      gains=config.gains if args.control in (None, config.control) else None)
     executed = {"executed, same coefficients": execute_plan(contour, model, plan)}
     for error in args.k1_error:

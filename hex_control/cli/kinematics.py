@@ -43,8 +43,9 @@ def _workspace(args) -> int:
     sweep = np.arange(start, stop + step / 2, step) if step > 0 else np.array([])
     n_phi = max(3, round(math.sqrt(args.sectors / 2)))
     with tqdm(total=len(args.rolls) + len(sweep), desc="workspace", unit="map") as bar:
-        summary = workspace_report(geometry, cube, Path(args.output), args.rolls, sweep.tolist(), args.heights,
-                                   2 * n_phi, n_phi, args.eps, progress=lambda: bar.update(1))
+        summary = workspace_report(geometry, cube, Path(args.output), args.rolls, sweep.tolist(),
+                                   heights_mm=args.heights,
+                                   n_theta=2 * n_phi, n_phi=n_phi, eps_mm=args.eps, progress=lambda: bar.update(1))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:

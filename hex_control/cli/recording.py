@@ -47,7 +47,7 @@ def _record(args) -> int:
 def _play(args) -> int:
     from hex_control.ros.tools.recorder import play
 
-    return play(args.directory, args.rate, args.topics, args.wait, args.loop, args.clock, args.remap)
+    return play(args.directory, args.rate, args.topics, args.wait, args.loop, clock_hz=args.clock, remaps=args.remap)
 
 
 def _bag(args) -> int:

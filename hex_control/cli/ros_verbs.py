@@ -122,11 +122,13 @@ def _ros_verb(args) -> int:
             return topic.topic_info(args.topic, args.verbose, args.wait)
         if args.verb == "echo":
             return topic.topic_echo(args.topic, args.once, args.count, args.field, args.timeout,
-                                    args.qos_durability, args.qos_reliability, args.qos_depth)
+                                    durability=args.qos_durability, reliability=args.qos_reliability,
+                                    depth=args.qos_depth)
         if args.verb == "hz":
             return topic.topic_hz(args.topic, args.window, args.duration, args.timeout)
         return topic.topic_pub(args.topic, args.type, args.values, args.rate, 1 if args.once else args.times,
-                               args.wait, args.qos_durability, args.qos_reliability, args.qos_depth)
+                               wait_s=args.wait, durability=args.qos_durability, reliability=args.qos_reliability,
+                               depth=args.qos_depth)
     if args.command == "node":
         from hex_control.ros.tools.ros_cli import node
 

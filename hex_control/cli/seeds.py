@@ -66,8 +66,8 @@ def _unit_commitment(args) -> int:
                   f"the table algorithm is {100 * peer['table_over_lower_bound']:.3f} % above the lower bound")
         print(f"wrote {args.output}/day_{summary['fleet']}.png")
     else:
-        summary = report.run_online(args.fleet, args.output, args.days, args.history_days, args.std, args.a,
-                                    args.seed, args.k, args.step, args.unbounded_store)
+        summary = report.run_online(args.fleet, args.output, args.days, args.history_days, args.std, a=args.a,
+                                    seed=args.seed, k=args.k, step_mw=args.step, unbounded_store=args.unbounded_store)
         print(f"{summary['fleet']}{' (store unbounded)' if args.unbounded_store else ''}: unit cost increase over "
               f"{args.days} days, fluctuation {100 * args.std:.2f} % std (mean ± standard error)")
         for kind, result in summary["models"].items():

@@ -39,7 +39,7 @@ def input_integral(a: np.ndarray, b: np.ndarray, horizon_s: float) -> np.ndarray
 class EnergyIndexController:
     """u(q, q', qbar, qbar') of eq. 9 with the limits of eq. 10."""
 
-    def __init__(self, mass, damping, stiffness, input_matrix, q1, q2, r, horizon_s: float, limits=None):
+    def __init__(self, mass, damping, stiffness, input_matrix, *, q1, q2, r, horizon_s: float, limits=None):
         self.m = np.atleast_2d(np.asarray(mass, float))
         self.k = np.atleast_2d(np.asarray(stiffness, float))
         a, b = state_matrices(mass, damping, stiffness, input_matrix)
@@ -65,7 +65,7 @@ class EnergyIndexController:
         return u if self.limits is None else np.clip(u, -self.limits, self.limits)  # eq. 10
 
 
-def simulate(mass, damping, stiffness, input_matrix, controller, q0, period_s: float, steps: int):
+def simulate(mass, damping, stiffness, input_matrix, controller, *, q0, period_s: float, steps: int):
     """Sampled control (held over each period, exact discretization) from q(0) = q0, q'(0) = 0.
     Returns (q (steps, n), u (steps, m))."""
     a, b = state_matrices(mass, damping, stiffness, input_matrix)

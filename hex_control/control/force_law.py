@@ -83,12 +83,13 @@ class EnergyForceLaw:
     """
 
     def __init__(self, period_s: float, stiffness_n_per_mm: float, contact_mm: float, pole1_hz: float = 9.0,
-                 pole2_hz: float = 40.0, q1: float = 1.0, q2: float = 1.0, r: float = 1e-3,
+                 *, pole2_hz: float = 40.0, q1: float = 1.0, q2: float = 1.0, r: float = 1e-3,
                  correction_limit_mm: float = 0.5, output_min: float = -math.inf, output_max: float = math.inf):
         if not (stiffness_n_per_mm > 0 and period_s > 0):
             raise ValueError("stiffness and period must be > 0")
         b1, b2 = 2 * math.pi * pole1_hz, 2 * math.pi * pole2_hz
-        self.law = EnergyIndexController(1.0, b1 + b2, b1 * b2, -b1 * b2, q1, q2, r, period_s, [correction_limit_mm])
+        self.law = EnergyIndexController(1.0, b1 + b2, b1 * b2, -b1 * b2, q1=q1, q2=q2, r=r, horizon_s=period_s,
+                                         limits=[correction_limit_mm])
         self.period_s, self.stiffness, self.contact_mm = period_s, stiffness_n_per_mm, contact_mm
         self.output_min, self.output_max = output_min, output_max
         self.reset(contact_mm)

@@ -117,7 +117,7 @@ def track(strategy: str, gains: Gains | None = None, **options) -> TrackingRun:
 
 
 def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0, control_period_s: float = 1e-3,
-                geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
+                *, geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
                 start_on_path: bool = False) -> list[TrackingRun]:
     """Run several (strategy, gains) machines side by side along ``path``: one batched
     dynamics evaluation serves them all. A machine that leaves the workspace or diverges
@@ -158,13 +158,13 @@ def track_batch(strategies, gains, path=CircularTilt(), duration_s: float = 1.0,
             rows[name].append(value)
         if k == steps:
             break
-        q, q_dot = _rk4(geometry, inertia, q, q_dot, tau, control_period_s)
+        q, q_dot = _rk4(geometry, inertia, q, q_dot, tau, dt=control_period_s)
     t, desired, desired_lengths = (np.array(rows[name]) for name in ("t", "qd", "Ld"))
     q, lengths, tau = (np.array(rows[name]) for name in ("q", "L", "tau"))  # (steps, n, 3)
     return [TrackingRun(t, q[:, m], desired, lengths[:, m], desired_lengths, tau[:, m], geometry) for m in range(n)]
 
 
-def _rk4(geometry, inertia, q, q_dot, tau, dt):
+def _rk4(geometry, inertia, q, q_dot, tau, *, dt):
     def rates(position, velocity):
         # an unstable loop's stage can leave the workspace, where the rockers have no pose
         if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
@@ -180,7 +180,7 @@ def _rk4(geometry, inertia, q, q_dot, tau, dt):
 
 
 def optimize_gains(strategy: str, bounds=None, duration_s: float = 0.5, control_period_s: float = 2e-3,
-                   generations: int = 10, population: int = 12, seed: int = 0):
+                   generations: int = 10, *, population: int = 12, seed: int = 0):
     """Seed 3.2: minimize the ITAE of a run over the gains by differential evolution on
     log10-gains within ``bounds`` (per gain: (low, high)); each generation is simulated as
     one batch. Returns (best gains, its ITAE, ITAE of the default gains)."""

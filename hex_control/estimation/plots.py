@@ -7,7 +7,7 @@ import numpy as np
 from hex_control.plotting import plt, save
 
 
-def plot_prediction(path, time_s, measurement, prediction, prediction_std, quantity: str,
+def plot_prediction(path, time_s, measurement, prediction, prediction_std, *, quantity: str,
                     title: str = "") -> None:
     """Measurement y(t+1) against its one-step prediction made at t, with a +-2 sigma band.
 

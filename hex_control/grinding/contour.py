@@ -76,7 +76,7 @@ def positive_area(x_mm: np.ndarray, d_mm: np.ndarray) -> float:
 
 
 def weld_bead(length_mm: float = 150.0, height_mm: float = 3.0, end_ramp_mm: float = 12.0,
-              spacing_mm: float = 0.5, parent_curvature_per_mm: float = 0.0, ripple_mm: float = 0.1,
+              spacing_mm: float = 0.5, parent_curvature_per_mm: float = 0.0, *, ripple_mm: float = 0.1,
               ripple_wavelength_mm: float = 8.0, seed: int = 0) -> Contour:
     """A test bead: a flat-topped bead of ``height_mm`` whose ends round off over
     ``end_ramp_mm`` (a quarter-sine), on a parent surface of the given curvature (its sag
@@ -105,7 +105,7 @@ class FinalContour:
 
 
 def final_contour(initial: Contour, cut_depth_mm: float, width_mm: float, shape_mm=None,
-                  tolerance: float = 1e-9, max_cut_mm: float = math.inf, cap_slope: float = 0.05) -> FinalContour:
+                  tolerance: float = 1e-9, *, max_cut_mm: float = math.inf, cap_slope: float = 0.05) -> FinalContour:
     """Eq. 6.1-6.2: Delta V = delta w L; find N by bisection so that
     w int_0^L g(Z_i(x) - z_f(x) - N) dx = Delta V, then Z_f = min(z_f + N, Z_i).
 
@@ -132,7 +132,7 @@ def final_contour(initial: Contour, cut_depth_mm: float, width_mm: float, shape_
     wanted = cut_depth_mm * width_mm * initial.length_mm  # eq. 6.1
     above = initial.z_mm - shape
     level = lambda n: np.full_like(above, n)  # noqa: E731 -- eq. 6.2's tip above the shape
-    offset = _offset_for(initial.x_mm, above, level, wanted, width_mm, cut_depth_mm, tolerance)
+    offset = _offset_for(initial.x_mm, above, level, wanted, width_mm, depth_mm=cut_depth_mm, tolerance=tolerance)
     if float(np.max(above)) - offset > max_cut_mm:  # the cap binds somewhere
         floor = _cone_envelope(initial.x_mm, above, cap_slope) - max_cut_mm
         capped = lambda n: np.maximum(n, floor)  # noqa: E731
@@ -140,14 +140,15 @@ def final_contour(initial: Contour, cut_depth_mm: float, width_mm: float, shape_
         if width_mm * positive_area(initial.x_mm, above - capped(lowest)) <= wanted:
             offset = lowest
         else:
-            offset = _offset_for(initial.x_mm, above, capped, wanted, width_mm, cut_depth_mm, tolerance, lowest)
+            offset = _offset_for(initial.x_mm, above, capped, wanted, width_mm, depth_mm=cut_depth_mm,
+                                 tolerance=tolerance, low=lowest)
         level = capped
     tip = shape + level(offset)
     return FinalContour(offset, tip, _lower_envelope(initial, tip),
                         width_mm * positive_area(initial.x_mm, initial.z_mm - tip), max_cut_mm)
 
 
-def _offset_for(x_mm, above_mm, level, wanted_mm3: float, width_mm: float, depth_mm: float, tolerance: float,
+def _offset_for(x_mm, above_mm, level, wanted_mm3: float, width_mm: float, *, depth_mm: float, tolerance: float,
                 low: float | None = None) -> float:
     """N where w int g(above - level(N)) dx = wanted, ``level`` increasing in N (bisection)."""
     removed = lambda n: width_mm * positive_area(x_mm, above_mm - level(n))  # noqa: E731

@@ -118,7 +118,16 @@ class _TipTracking:
     and its slope; gains G1, G2. The disk starts at its relaxed angle with the tip on the
     trajectory, the centre at height H0."""
 
-    def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float, g1: float, g2: float):
+    GAINS: tuple[str, ...] = ("g1", "g2")  # the constructor's keywords for (G1, G2)
+
+    @classmethod
+    def gain_keywords(cls, gains) -> dict:
+        """(G1, G2), or a prefix of it, as keyword arguments of the constructor (None: its defaults)."""
+        if gains and len(gains) > len(cls.GAINS):
+            raise TypeError(f"{cls.__name__} takes {len(cls.GAINS)} gains, {len(gains)} given")
+        return dict(zip(cls.GAINS, gains or ()))
+
+    def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float, *, g1: float, g2: float):
         self.tip_x, self.tip_z = np.asarray(tip_x_mm, float), np.asarray(tip_z_mm, float)
         self.slope = np.diff(self.tip_z) / np.diff(self.tip_x)
         self.model, self.g1, self.g2 = model, g1, g2
@@ -136,9 +145,11 @@ class HeightControl(_TipTracking):
     """Eq. 6.17, dH/dt = G1 de/dt + G2 e with e = z_tip(x_tip) - y, integrated:
     H = H0 + G1 (e - e0) + G2 int e dt, solved for H (e depends on H through y)."""
 
+    GAINS = ("proportional", "integral_per_s")
+
     def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
-                 proportional: float = 20.0, integral_per_s: float = 200.0):
-        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional, integral_per_s)
+                 *, proportional: float = 20.0, integral_per_s: float = 200.0):
+        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, g1=proportional, g2=integral_per_s)
 
     def state(self, centre_x_mm, feed_mm_s, angle_rad, integral) -> DriveState:
         r, g1 = self.model.radius_mm, self.g1
@@ -156,9 +167,11 @@ class RelaxedAngleControl(_TipTracking):
     """6.6's variant: the height stays at H0 and a PI on the tip error winds the spring,
     theta_0 = theta_0,nominal - G1 e - G2 int e dt (gains in rad/mm, rad/(mm s))."""
 
+    GAINS = ("proportional_rad_mm", "integral_rad_mm_s")
+
     def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float,
-                 proportional_rad_mm: float = 0.05, integral_rad_mm_s: float = 5.0):
-        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, proportional_rad_mm, integral_rad_mm_s)
+                 *, proportional_rad_mm: float = 0.05, integral_rad_mm_s: float = 5.0):
+        super().__init__(model, tip_x_mm, tip_z_mm, start_tip_x_mm, g1=proportional_rad_mm, g2=integral_rad_mm_s)
 
     def state(self, centre_x_mm, feed_mm_s, angle_rad, integral) -> DriveState:
         r = self.model.radius_mm
@@ -248,7 +261,7 @@ class PassStepper:
     machine itself in the plant's grinding cell, which changes it and ``dt`` between steps.
     ``simulate_pass`` runs a :class:`FeedMotion` pass to the end of the bead."""
 
-    def __init__(self, contour: Contour, model: DiskModel, motion, dt_s: float, initial_angle_rad: float,
+    def __init__(self, contour: Contour, model: DiskModel, motion, dt_s: float, *, initial_angle_rad: float,
                  step_mm: float, swing_floor_s: float | None = None, truncate_in_stages: bool = False,
                  contact_search=contact_patch):
         self.model, self.motion, self.dt, self.step_mm = model, motion, dt_s, step_mm
@@ -310,7 +323,7 @@ class PassStepper:
 
 
 def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float | None = None,
-                  end_tip_x_mm: float | None = None, step_mm: float = 0.05,
+                  *, end_tip_x_mm: float | None = None, step_mm: float = 0.05,
                   truncate_in_stages: bool = False, contact_search=contact_patch) -> PassSimulation:
     """Grind one pass at constant feed from the tip at ``start_tip_x_mm`` until the tip
     reaches ``end_tip_x_mm`` (the contour's ends by default), by RK4 at ``step_mm`` of feed
@@ -321,14 +334,14 @@ def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, s
     if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):
         raise ValueError("need a feed speed > 0 (mm/s) and a step > 0 (mm)")
     motion = FeedMotion(drive, feed_mm_s, start + model.radius_mm * math.cos(drive.initial_angle_rad))
-    stepper = PassStepper(contour, model, motion, step_mm / feed_mm_s, drive.initial_angle_rad, step_mm,
-                          truncate_in_stages=truncate_in_stages, contact_search=contact_search)
+    stepper = PassStepper(contour, model, motion, step_mm / feed_mm_s, initial_angle_rad=drive.initial_angle_rad,
+                          step_mm=step_mm, truncate_in_stages=truncate_in_stages, contact_search=contact_search)
     rows = {name: [] for name in HISTORY}
     multiple = 0
     while True:
         now = stepper.evaluate()
         _, s, pose, patch = now
-        _record(rows, model, stepper.time_s, pose, s, patch)
+        _record(rows, model, stepper.time_s, pose, s, patch=patch)
         multiple += patch.patches > 1
         if pose.tip_x_mm >= end:
             break
@@ -340,7 +353,7 @@ def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, s
     return PassSimulation(history, final, float(removed), int(multiple))
 
 
-def _record(rows, model, time, pose, s, patch):
+def _record(rows, model, time, pose, s, *, patch):
     force = max(s.force_n, 0.0) if patch.length_mm > 0 else 0.0
     for name, value in (("time_s", time), ("centre_x_mm", pose.centre_x_mm), ("tip_x_mm", pose.tip_x_mm),
                         ("tip_z_mm", pose.tip_z_mm), ("height_mm", pose.centre_z_mm), ("angle_rad", pose.angle_rad),

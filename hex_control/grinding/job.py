@@ -152,7 +152,7 @@ class GrindingJob:
         return f"; {len(bad)} of {self.state.passes} passes not as planned: {each}"
 
     def apply_result(self, pass_index: int, cut_mm: float, duration_s: float, completed: bool = True,
-                     status: str | None = None, reason: str = "") -> None:
+                     *, status: str | None = None, reason: str = "") -> None:
         """Measured outcome of the pending pass (also of an aborted or faulted one: the
         removal measured by the scanner is what happened). ``status``: "completed",
         "aborted" or "faulted" (default from ``completed``); ``reason``: why not completed."""

@@ -79,7 +79,7 @@ class PassPlan:
 
 
 def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float,
-              control: str = "height", step_mm: float = 0.1, shape_mm=None, gains: tuple[float, float] | None = None,
+              control: str = "height", *, step_mm: float = 0.1, shape_mm=None, gains: tuple[float, float] | None = None,
               depth_tolerance: float = 0.02, max_simulations: int = 12) -> PassPlan:
     """Plan one pass of mean cut depth ``cut_depth_mm`` at ``feed_mm_s`` on ``contour``.
     ``gains``: (G1, G2) of the controller chosen by ``control`` (its defaults if None).
@@ -110,7 +110,7 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
 
     def simulate(target):
         controller = HeightControl if control == "height" else RelaxedAngleControl
-        drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], *(gains or ()))
+        drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], **controller.gain_keywords(gains))
         simulation = simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
         load = max(simulation.peak_force_n / process.force_max_n, simulation.peak_power_w / limit_w)
         return (target, simulation), load
@@ -261,7 +261,7 @@ def force_for_power(process: GrindingProcess, power_w):
 
 
 def plan_pass_static(contour: Contour, process: GrindingProcess, compliance: Compliance, cut_depth_mm: float,
-                     feed_mm_s: float, shape_mm=None) -> StaticPassPlan:
+                     feed_mm_s: float, *, shape_mm=None) -> StaticPassPlan:
     """8.3 item 3: cross-section to remove w (Z_i - Z_f) along the bead times V_f is the
     removal rate Q(x); power K1 Q + K2; force from the power; deflection from the table."""
     if not (math.isfinite(cut_depth_mm) and cut_depth_mm > 0 and math.isfinite(feed_mm_s) and feed_mm_s > 0):
@@ -296,20 +296,21 @@ class ForcePlan:
 
 
 def plan_forces(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float, planner: str = "dynamic",
-                control: str = "height", gains=None, step_mm: float = 0.1,
+                *, control: str = "height", gains=None, step_mm: float = 0.1,
                 compliance: Compliance | None = None, shape_mm=None) -> ForcePlan:
     """The dynamic planner (6.6) or the static one (8.3 item 3; the tool holds the tip on
     the final contour at the relaxed angle). ``shape_mm``: the desired final shape under the
     level top (the parent surface if None), as :func:`final_contour` takes it."""
     if planner == "dynamic":
-        plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm, shape_mm, gains=gains)
+        plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm=step_mm, shape_mm=shape_mm,
+                         gains=gains)
         h = plan.simulation.history
         return ForcePlan(plan.time_s, plan.centre_x_mm, plan.height_mm, plan.force_n, plan.simulation.final,
                          plan.planned_depth_mm, plan.reason, plan.simulations, h["tip_x_mm"], h["tip_z_mm"])
     if planner != "static":
         raise PlanningError(f"planner must be 'dynamic' or 'static', got {planner!r}")
     plan = plan_pass_static(contour, model.process, compliance or Compliance.linear(model.spring_n_mm_rad),
-                            cut_depth_mm, feed_mm_s, shape_mm)
+                            cut_depth_mm, feed_mm_s, shape_mm=shape_mm)
     angle = model.relaxed_angle_rad
     return ForcePlan(plan.time_s, plan.x_mm + model.radius_mm * math.cos(angle),
                      plan.target.contour.z_mm + model.radius_mm * math.sin(angle), plan.force_n,

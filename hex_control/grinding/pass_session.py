@@ -315,8 +315,8 @@ class PassSession:
                 if not above > 0:
                     break
                 depth = min(depth, above)
-            plan = plan_forces(contour, model, depth, feed, config.planner, config.control, config.gains,
-                               config.step_mm, config.compliance, shape)
+            plan = plan_forces(contour, model, depth, feed, config.planner, control=config.control, gains=config.gains,
+                               step_mm=config.step_mm, compliance=config.compliance, shape_mm=shape)
             dip, at = parent_dip(plan, contour)
             if dip <= PARENT_TOLERANCE_MM:
                 if raised > 0:

@@ -9,7 +9,7 @@ from hex_control.grinding.sdp import GRIND, QUIT, Policy
 from hex_control.plotting import plt, save
 
 
-def _window(ax, policy: Policy, values, title, label, cmap="viridis", trajectory=None):
+def _window(ax, policy: Policy, values, title, label, *, cmap="viridis", trajectory=None):
     extent = (policy.material_mm[0], policy.material_mm[-1], policy.time_s[0], policy.time_s[-1])
     image = ax.imshow(values, origin="lower", aspect="auto", extent=extent, cmap=cmap, interpolation="nearest")
     ax.axhline(0.0, color="k", lw=0.6)

@@ -22,7 +22,7 @@ class JobOutcome:
 
 
 def run_job(policy: Policy, process: GrindingProcess, charges: Charges, cut_model: CutDepthModel,
-            time_remaining_s: float, material_mm: float, rng: np.random.Generator,
+            time_remaining_s: float, *, material_mm: float, rng: np.random.Generator,
             max_passes: int = 1000) -> JobOutcome:
     """Execute one job: look the policy up at the measured state, grind with a cut drawn from
     the model, repeat until it waits out the deadline or quits."""

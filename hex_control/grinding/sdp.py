@@ -376,7 +376,7 @@ def solve(process: GrindingProcess, charges: Charges = Charges(), grid: PlannerG
 
 
 def feed_values(policy: Policy, controls: Controls, cut_model: CutDepthModel, time_remaining_s: float,
-                material_mm: float, force_index: int = -1) -> np.ndarray:
+                material_mm: float, *, force_index: int = -1) -> np.ndarray:
     """E[J*] after one pass from the node at (t, X) with the force ``controls.forces_n[force_index]``,
     per feed (NaN where the pass does not fit or is infeasible), before the per-pass charge: how
     much the planner cares which feed it takes there."""

@@ -556,7 +556,7 @@ class Sequencer:
         """The plant's latest scan of this job's part after ``passes`` passes."""
         return next((s for s in reversed(self._scans) if s.passes == passes and s.job_id in ("", job_id)), None)
 
-    def on_scan(self, job_id: str, passes: int, x_mm, z_mm, parent_mm, width_mm: float, stamp_ns: int,
+    def on_scan(self, job_id: str, passes: int, x_mm, z_mm, *, parent_mm, width_mm: float, stamp_ns: int,
                 now_s: float) -> Outputs:
         """A plant scan (grinding/contour): the bead goals are checked against, and the removal
         pass results are checked against. A held result is taken up once its scan is here."""

@@ -105,7 +105,7 @@ def body_jacobians(geometry: Pru3Geometry, q) -> BodyJacobians:
 
 
 def generalized_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, external_force_n=None,
-                         external_moment_n_mm=None, time_step_s: float = 1e-6):
+                         *, external_moment_n_mm=None, time_step_s: float = 1e-6):
     """The virtual-work balance J^T tau = M(q) q'' + h(q, q') in the platform coordinates:
     M (N, 3, 3) in kg (mm, rad units), h (N, 3) in kg mm/s^2 per coordinate, and J = dL/dq.
 
@@ -155,13 +155,13 @@ def generalized_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot,
     return m_gen, h, j.sliders
 
 
-def inverse_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, q_ddot, external_force_n=None,
+def inverse_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, q_ddot, *, external_force_n=None,
                      external_moment_n_mm=None, time_step_s: float = 1e-6) -> np.ndarray:
     """Slider forces tau (N, 3) in N for the motion (q, q', q''), rows of (z mm, alpha rad,
     beta rad) and their rates; the external wrench on the platform (N, N mm, world frame)
     acts at the platform origin. tau = J^-T (M q'' + h)."""
-    m_gen, h, jac = generalized_dynamics(geometry, inertia, q, q_dot, external_force_n, external_moment_n_mm,
-                                         time_step_s)
+    m_gen, h, jac = generalized_dynamics(geometry, inertia, q, q_dot, external_force_n,
+                                         external_moment_n_mm=external_moment_n_mm, time_step_s=time_step_s)
     load = np.einsum("nij,nj->ni", m_gen, _as_q(q_ddot)) + h
     return np.linalg.solve(np.swapaxes(jac, -1, -2), load[..., None])[..., 0] / KG_MM_S2_PER_N
 
@@ -180,7 +180,7 @@ def forward_dynamics(geometry: Pru3Geometry, inertia: Pru3Inertia, q, q_dot, tau
     return np.linalg.solve(m_gen, (drive - h)[..., None])[..., 0]
 
 
-def simulate(geometry: Pru3Geometry, inertia: Pru3Inertia, q0, q_dot0, torque, duration_s: float,
+def simulate(geometry: Pru3Geometry, inertia: Pru3Inertia, q0, q_dot0, torque, *, duration_s: float,
              sample_s: float = 1e-3, rtol: float = 1e-9, atol: float = 1e-9):
     """Integrate the forward dynamics from (q0, q'0) under ``torque(t, q, q') -> tau`` (N)
     with an adaptive Runge-Kutta (RK45); returns (times, q, q') sampled every sample_s."""

@@ -173,10 +173,11 @@ class KinematicsCore:
         if cube is None:
             cube = [(c - 1000.0, c + 1000.0) for c in self.machine.home_pose[:3]]
         try:
-            result = compute_workspace(self.machine, orientation, cube, 2 * n_phi, n_phi, eps)
+            result = compute_workspace(self.machine, orientation, cube, 2 * n_phi, n_phi, eps_mm=eps)
         except ValueError as exc:  # e.g. nothing reachable at this orientation
             return WorkspaceAnswer("UNREACHABLE", reason=str(exc))
-        areas = tuple(cross_section(self.machine, orientation, z, result.center_mm[:2], 180, eps)[0] for z in heights)
+        areas = tuple(cross_section(self.machine, orientation, z, result.center_mm[:2], 180,
+                                    eps_mm=eps)[0] for z in heights)
         sets = self.machine.constraint_sets
         return WorkspaceAnswer("SUCCESS", result.volume_mm3, np.concatenate([result.center_mm, orientation]),
                                result.boundary_mm.reshape(-1, 3),

@@ -328,7 +328,7 @@ class ForwardSolution:
 
 def forward_kinematics_batch(geometry: StewartGeometry, lengths_mm, initial_guess,
                              tolerance_mm: float = 1e-9, max_iterations: int = 50,
-                             max_condition: float = 1e12) -> ForwardSolution:
+                             *, max_condition: float = 1e12) -> ForwardSolution:
     """Poses from strut lengths by Newton-Raphson, seed 001 section 2.1.2 steps 1-4,
     for N length sets at once: q <- q + dq with J(q) dq = L - L(q), from ``initial_guess``
     (so the solution nearest the guess is found), until max |L(q) - L| < tolerance_mm.

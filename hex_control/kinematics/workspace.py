@@ -63,7 +63,7 @@ def sphere_directions(n_theta: int, n_phi: int) -> tuple[np.ndarray, np.ndarray,
 
 
 def boundary_radii(geometry, orientation, center, directions, eps_mm: float = 1.0,
-                   rho_max_mm: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                   *, rho_max_mm: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Boundary radius along each direction by successive approximation (seed 4.3).
 
     Keeps a tested-inside radius and a tested-outside radius per direction and halves the
@@ -142,7 +142,7 @@ class Workspace:
 
 
 def compute_workspace(geometry: StewartGeometry, orientation, search_cube_mm, n_theta: int = 50,
-                      n_phi: int = 25, eps_mm: float = 1.0, center_mm=None) -> Workspace:
+                      n_phi: int = 25, *, eps_mm: float = 1.0, center_mm=None) -> Workspace:
     """Centre search, spherical boundary search and sector volume at one orientation."""
     orientation = np.asarray(orientation, float)
     center = find_center(geometry, orientation, search_cube_mm) if center_mm is None else np.asarray(center_mm)
@@ -152,7 +152,7 @@ def compute_workspace(geometry: StewartGeometry, orientation, search_cube_mm, n_
 
 
 def cross_section(geometry: StewartGeometry, orientation, z_mm: float, center_xy_mm,
-                  n_angles: int = 360, eps_mm: float = 1.0) -> tuple[float, np.ndarray]:
+                  n_angles: int = 360, *, eps_mm: float = 1.0) -> tuple[float, np.ndarray]:
     """Area (mm^2) and boundary polygon (n_angles, 2) of the workspace slice at height z,
     by the same successive approximation in the plane from ``center_xy_mm`` (seed 5.2).
     Zero area if that point of the slice is not reachable."""
@@ -168,12 +168,12 @@ def cross_section(geometry: StewartGeometry, orientation, z_mm: float, center_xy
 
 
 def roll_sweep(geometry: StewartGeometry, rolls_rad, search_cube_mm, n_theta: int = 50, n_phi: int = 25,
-               eps_mm: float = 1.0, progress=None) -> list[Workspace]:
+               *, eps_mm: float = 1.0, progress=None) -> list[Workspace]:
     """Workspaces over a sweep of roll angles (pitch = yaw = 0), seed Fig. 14.
     ``progress`` (optional) is called once per roll, e.g. a tqdm update."""
     result = []
     for roll in rolls_rad:
-        result.append(compute_workspace(geometry, (roll, 0.0, 0.0), search_cube_mm, n_theta, n_phi, eps_mm))
+        result.append(compute_workspace(geometry, (roll, 0.0, 0.0), search_cube_mm, n_theta, n_phi, eps_mm=eps_mm))
         if progress is not None:
             progress()
     return result

@@ -329,7 +329,7 @@ class PlantCore:
         before = monitor.running
         centre_x_mm = state.centre_mm[0] if state.centre_mm is not None else math.nan
         report = monitor.on_period(state.time_s, state.deflection_mm, state.strut_speeds_m_s, command_age_s,
-                                   state.force_n, centre_x_mm)
+                                   force_n=state.force_n, centre_x_mm=centre_x_mm)
         if monitor.running is not None and monitor.running is not before:
             self.outputs.pass_started(monitor.running)
         if report is None:

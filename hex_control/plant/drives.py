@@ -26,7 +26,7 @@ def strut_servos(geometry: MachineKind, parameters: MachineParameters, step_s: f
 def pru3_dynamics(geometry, parameters: MachineParameters, step_s: float, refresh_s: float,
                   pru3_drive: str) -> Pru3Machine:
     return Pru3Machine(geometry, Pru3Inertia(), replace(parameters, struts=3, participation=1.0 / 3), step_s,
-                       pru3_drive, refresh_s=refresh_s)
+                       drive=pru3_drive, refresh_s=refresh_s)
 
 
 PLANT_DRIVES = {"strut_servos": strut_servos, "pru3_dynamics": pru3_dynamics}

@@ -52,7 +52,7 @@ class ForceTableParameters:
 
 def appendix_b_position_loop(inertia_in_lb_s_per_krpm: float = 9.313e-3, friction_in_lb_per_krpm: float = 0.063,
                              amplifier_a_per_v: float = 36.7, torque_in_lb_per_a: float = 0.363,
-                             tachometer_v_per_krpm: float = 3.09, r28: float = 1.00, r53: float = 0.806,
+                             tachometer_v_per_krpm: float = 3.09, *, r28: float = 1.00, r53: float = 0.806,
                              lvdt_v_per_in: float = 41.878, pitch_rev_per_in: float = 5.0,
                              pole_rad_s: float = 1100.0, zero_rad_s: float = 5000.0):
     """(num, den) of X/X_c, eq. 7.2, from the block diagram of Fig. B-7 (Appendix B.4).

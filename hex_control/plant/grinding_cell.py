@@ -69,7 +69,7 @@ class MachineMotion:
 
 
 def advance_by_machine(stepper: PassStepper, motion: MachineMotion, duration_s: float, start_mm, end_mm,
-                       table_mm: float, step_mm: float):
+                       *, table_mm: float, step_mm: float):
     """Move the centre from ``start_mm`` to ``end_mm`` ((x, H), bead frame) in ``duration_s``
     with the table at ``table_mm``, in sub-steps of at most ``step_mm`` along the bead;
     returns the (force N, power W, in contact) samples at the sub-step starts."""
@@ -120,7 +120,7 @@ class GrindingCell:
     one control period, ``finish_pass`` scans and measures."""
 
     def __init__(self, contour: Contour, model: DiskModel, variation: ProcessVariation = ProcessVariation(),
-                 seed: int = 0, table_contact_mm: float = 0.0, step_mm: float = 0.1, control_period_s: float = 0.005,
+                 seed: int = 0, *, table_contact_mm: float = 0.0, step_mm: float = 0.1, control_period_s: float = 0.005,
                  burn_coefficient: float | None = None, burn_window_s: float = 0.1):
         if not (step_mm > 0 and control_period_s > 0 and burn_window_s > 0):
             raise ValueError("need step_mm, control_period_s and burn_window_s > 0")
@@ -130,8 +130,8 @@ class GrindingCell:
         self.burn_coefficient, self.burn_window_s = burn_coefficient, burn_window_s
         self.model = model
         self.motion = MachineMotion(table_contact_mm)
-        self.stepper = PassStepper(contour, model, self.motion, 1.0, model.relaxed_angle_rad, step_mm,
-                                   swing_floor_s=control_period_s)
+        self.stepper = PassStepper(contour, model, self.motion, 1.0, initial_angle_rad=model.relaxed_angle_rad,
+                                   step_mm=step_mm, swing_floor_s=control_period_s)
         self.centre_mm = None  # (x, H) at the end of the last advance
         self.current = None  # the pass being measured: dict of accumulators
         self.passes_started = 0
@@ -168,7 +168,8 @@ class GrindingCell:
             raise ValueError("need a finite centre, table position and a positive duration")
         start = self.centre_mm or centre
         self.centre_mm = centre
-        samples = advance_by_machine(self.stepper, self.motion, duration_s, start, centre, table_mm, self.step_mm)
+        samples = advance_by_machine(self.stepper, self.motion, duration_s, start, centre, table_mm=table_mm,
+                                     step_mm=self.step_mm)
         if self.current is not None:
             self._accumulate(samples, duration_s / len(samples), abs(centre[0] - start[0]) / duration_s)
         _, _, _, patch = self.stepper.evaluate()

@@ -82,7 +82,7 @@ class PassMonitor:
     restart had started and never scanned; the same plan run again ran across the restart."""
 
     def __init__(self, cell: GrindingCell, settle_deflection_mm: float = 0.01, settle_speed_m_s: float = 1e-5,
-                 max_settle_s: float = 10.0, command_timeout_s: float = 0.1,
+                 max_settle_s: float = 10.0, *, command_timeout_s: float = 0.1,
                  interrupted: tuple[str, int, float] | None = None):
         self.cell = cell
         self.settle_deflection_mm, self.settle_speed_m_s = settle_deflection_mm, settle_speed_m_s
@@ -107,7 +107,7 @@ class PassMonitor:
         return True
 
     def on_period(self, time_s: float, deflection_mm: float, strut_speeds_m_s, command_age_s: float,
-                  force_n: float = math.nan, centre_x_mm: float = math.nan):
+                  *, force_n: float = math.nan, centre_x_mm: float = math.nan):
         """Call after every control period (true normal force N, disk centre mm along the
         bead); returns a PassReport when a pass has ended."""
         if self.scheduled is not None and time_s >= self.scheduled.path_start_s:

@@ -55,7 +55,7 @@ class Pru3Machine:
 
     def __init__(self, geometry: Pru3Geometry = Pru3Geometry(), inertia: Pru3Inertia = Pru3Inertia(),
                  parameters: MachineParameters = MachineParameters(struts=3, participation=1 / 3),
-                 step_s: float = 1e-3, drive: str = "lspd", refresh_s: float = 0.005,
+                 step_s: float = 1e-3, *, drive: str = "lspd", refresh_s: float = 0.005,
                  gains_n_per_mm: tuple[float, float] | None = None):
         if parameters.struts != 3:
             raise ValueError("the 3-PRU has three sliders")

@@ -39,7 +39,7 @@ def _lengths_m(machine, positions_mm: np.ndarray, orientation_rpy_rad) -> np.nda
 
 
 def pass_strut_lengths_m(machine: MachineKind, frame: BeadFrame, length_mm: float,
-                         feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
+                         feed_mm_s: float, height_mm: float, *, timing: PathTiming = PathTiming(),
                          shaper: Shaper | None = None) -> np.ndarray:
     """The strut (or slider and feed) commands (m), one row per path sample, of one pass's
     path at constant height: approach, grinding at ``feed_mm_s``, retract and reset, through
@@ -60,12 +60,12 @@ def pass_strut_lengths_m(machine: MachineKind, frame: BeadFrame, length_mm: floa
 
 
 def measure_reset_time(machine: MachineKind, frame: BeadFrame, length_mm: float,
-                       feed_mm_s: float, height_mm: float, timing: PathTiming = PathTiming(),
+                       feed_mm_s: float, height_mm: float, *, timing: PathTiming = PathTiming(),
                        parameters: MachineParameters = MachineParameters(), shaper: Shaper | None = None,
                        settle_mm: float = 0.01, step_s: float = 1e-3, max_settle_s: float = 30.0) -> ResetTime:
     if not settle_mm > 0:
         raise ValueError("need a positive settle band")
-    lengths = pass_strut_lengths_m(machine, frame, length_mm, feed_mm_s, height_mm, timing, shaper)
+    lengths = pass_strut_lengths_m(machine, frame, length_mm, feed_mm_s, height_mm, timing=timing, shaper=shaper)
     end = lengths[-1]
     model = make_drive(machine, parameters, step_s, timing.sample_period_s)  # the plant's own model of it
     model.reset(lengths[0])

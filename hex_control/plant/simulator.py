@@ -38,7 +38,7 @@ class PlantSnapshot:
 class PlantSimulator:
     def __init__(self, table: ForceTableParameters = ForceTableParameters(),
                  machine: MachineParameters | Machine | Pru3Machine = MachineParameters(),
-                 step_s: float = 1e-3, seed: int = 0, table_start_mm: float = -1.0, cell: GrindingCell | None = None,
+                 step_s: float = 1e-3, seed: int = 0, *, table_start_mm: float = -1.0, cell: GrindingCell | None = None,
                  locator: ToolLocator | None = None, strut_limiter: StrutRateLimiter | None = None):
         if (cell is None) != (locator is None):
             raise ValueError("a grinding cell needs a tool locator, and the other way round")

@@ -16,7 +16,7 @@ from collections.abc import Callable, Iterable, Iterator
 
 def paced(messages: Iterable[tuple], rate: float = 1.0, now: Callable[[], float] = time.monotonic,
           sleep: Callable[[float], object] = time.sleep, tick: Callable[[int], None] | None = None,
-          tick_period_s: float = 0.025, stopped: Callable[[], bool] = lambda: False) -> Iterator[tuple]:
+          *, tick_period_s: float = 0.025, stopped: Callable[[], bool] = lambda: False) -> Iterator[tuple]:
     """Yield each of ``messages`` (tuples whose last item is the recorded time, ns, in time
     order) when due at ``rate`` times the recorded pace on the clock ``now`` (s). While
     waiting, ``tick(recorded time now, ns)`` is called every ``tick_period_s`` of wall time

@@ -27,7 +27,7 @@ def plot_sensitivity(path, shapers: dict, design_hz: float, damping: float = 0.0
 
 
 def plot_step_responses(path, shapers: dict, mode_hz: float, damping: float, duration_s: float = 3.0,
-                        dt_s: float = 1e-3) -> None:
+                        *, dt_s: float = 1e-3) -> None:
     """A unit step through the mode, unshaped and through each shaper."""
     t = np.arange(0.0, duration_s, dt_s)
     raw = np.where(t >= 0.05, 1.0, 0.0)

@@ -24,7 +24,7 @@ def residual_vibration(shaper: Shaper, frequency_hz, damping: float = 0.0) -> np
 
 
 def insensitivity(shaper: Shaper, design_hz: float, damping: float = 0.0, tolerance: float = 0.05,
-                  ratio_max: float = 3.0, points: int = 60_001) -> float:
+                  ratio_max: float = 3.0, *, points: int = 60_001) -> float:
     """Width, in units of the design frequency, of the band around it where V <= tolerance."""
     ratios = np.linspace(1e-3, ratio_max, points)
     ok = residual_vibration(shaper, ratios * design_hz, damping) <= tolerance

@@ -82,7 +82,7 @@ def linear_figures(gain_scale: float, rate_hz: float, roll_off: RollOff = RollOf
 
 def usable_bandwidth(rate_hz: float, roll_off: RollOff = RollOff(),
                      parameters: ForceTableParameters = ForceTableParameters(),
-                     max_runout_gain: float = 1.1, max_sensitivity: float = 2.0, max_tracking_peak: float = 1.3,
+                     max_runout_gain: float = 1.1, max_sensitivity: float = 2.0, *, max_tracking_peak: float = 1.3,
                      gain_scales=np.logspace(-1, 1.5, 61)) -> LoopFigures | None:
     """The usable gain scale with the highest bandwidth, or None if none is usable."""
     best = None
@@ -113,7 +113,7 @@ def grinding_table(runout_mm: float = 0.05) -> ForceTableParameters:
 
 
 def simulate(gain_scale: float, rate_hz: float, roll_off: RollOff, setpoint, duration_s: float,
-             parameters: ForceTableParameters, seed: int = 0, step_s: float = 1e-3) -> dict:
+             *, parameters: ForceTableParameters, seed: int = 0, step_s: float = 1e-3) -> dict:
     """The sampled loop on the nonlinear table, started at rest in contact at setpoint(0)."""
     period = 1.0 / rate_hz
     substeps = max(1, round(period / step_s))

@@ -12,7 +12,7 @@ from hex_control.plant.force_table import ForceTable, ForceTableParameters, simu
 
 
 def step_itae(kp: float, ki: float, parameters: ForceTableParameters, period_s: float, force_n: float,
-              duration_s: float, start_mm: float = -1.0) -> float:
+              *, duration_s: float, start_mm: float = -1.0) -> float:
     """ITAE of a force step from contact (table at ``start_mm`` = the contact point)."""
     table = ForceTable(parameters, step_s=period_s / 5)
     table.reset(start_mm)
@@ -24,8 +24,8 @@ def step_itae(kp: float, ki: float, parameters: ForceTableParameters, period_s: 
 
 
 def tune_pi_itae(parameters: ForceTableParameters, period_s: float, force_n: float, duration_s: float,
-                 initial=(0.002, 0.05), start_mm: float = -1.0) -> tuple[float, float, float]:
+                 initial=(0.002, 0.05), *, start_mm: float = -1.0) -> tuple[float, float, float]:
     """(kp, ki, itae) minimizing the step ITAE, from ``initial``."""
     (kp, ki), value = minimize_itae(lambda gains: step_itae(gains[0], gains[1], parameters, period_s, force_n,
-                                                            duration_s, start_mm), initial)
+                                                            duration_s=duration_s, start_mm=start_mm), initial)
     return kp, ki, value

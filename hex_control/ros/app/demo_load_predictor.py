@@ -129,7 +129,7 @@ def report(received, samples: int, rate_hz: float, out: Path) -> int:
     }
     time_s = np.arange(len(received)) / rate_hz
     plot_prediction(out / "load_prediction.png", time_s, measurement, prediction, std,
-                    "normal force (N)")
+                    quantity="normal force (N)")
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     counts = [m.sample_count for m in received]
     print(f"\nreceived {len(received)}/{samples} predictions over ROS 2; "

@@ -92,8 +92,8 @@ class JobObserver(Node):
                 (PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY, "plant"),
                 (GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS, "sequence_planner"),
                 (LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM, "load_predictor/pass")):
-            info_subscription(self, msg_type, topic, callback, qos, _Tally(self.refused), topic, owner_node=owner,
-                              wait_depth=KEPT_WHILE_UNNAMED)
+            info_subscription(self, msg_type, topic, callback, qos, diagnostics=_Tally(self.refused), name=topic,
+                              owner_node=owner, wait_depth=KEPT_WHILE_UNNAMED)
         self.job_id = None  # the job whose messages are recorded
         self.job_result = None
         self.foreign_messages = 0
@@ -452,8 +452,8 @@ class JobSession:
 
 
 def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "lockstep",
-            real_time_factor: float = 1.0, reset_time_s: float | None = None, plant_overrides: dict | None = None,
-            *, timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
+            real_time_factor: float = 1.0, *, reset_time_s: float | None = None, plant_overrides: dict | None = None,
+            timeout_s: float = 1800.0, quiet: bool = False, placement: dict | None = None,
             machine_file: str | None = None, restart_planner_after: int | None = None,
             namespace: str = "", record: bool = True, resume: bool = False) -> JobRecord:
     """Run one job on a fresh graph; returns what was recorded (the graph is stopped).
@@ -532,8 +532,8 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
     config = load_pass_planner_config("pass_planner.yaml", document)
     height = config.model.radius_mm * np.sin(config.model.relaxed_angle_rad) + 1.0
     shaper = design("zvd", parameters.mode_frequency_hz, parameters.mode_damping)
-    return {name: measure_reset_time(machine, config.frame, bead_length_mm, feed_mm_s, height, config.path,
-                                     parameters, s)
+    return {name: measure_reset_time(machine, config.frame, bead_length_mm, feed_mm_s, height, timing=config.path,
+                                     parameters=parameters, shaper=s)
             for name, s in (("unshaped", None), ("zvd", shaper))}
 
 
@@ -634,7 +634,8 @@ def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None
     start = time.monotonic()
     try:
         job = run_job(directory, options["deadline"], seed, "realtime" if options["realtime"] else "lockstep",
-                      options["real_time_factor"], reset_time_s, overrides, timeout_s=timeout_s, quiet=quiet,
+                      options["real_time_factor"], reset_time_s=reset_time_s, plant_overrides=overrides,
+                      timeout_s=timeout_s, quiet=quiet,
                       placement=placement, machine_file=str(config_file(machine_file)),
                       restart_planner_after=restart_planner_after, namespace=options["namespace"], record=record,
                       resume=resume)

@@ -57,7 +57,7 @@ class LostMessages:
         return 0 if last is None or sequence <= last else sequence - last - 1
 
 
-def info_subscription(node, msg_type, topic: str, callback, qos, diagnostics, name: str,
+def info_subscription(node, msg_type, topic: str, callback, qos, *, diagnostics, name: str,
                       owner_node: str | tuple[str, ...] | None = None,
                       with_source: bool = False, wait_depth: int = 16) -> CommandOwner | None:
     """Subscribe ``callback(msg)`` to ``topic``, counting lost messages in ``diagnostics``.

@@ -125,13 +125,13 @@ class ForceControllerNode(Node):
         owner = {name: p[f"{name}_owner"] for name in ("pass_command", "trajectory", "measurement")}
         # latched: a controller that matches the planners late still gets the pass it must run
         info_subscription(self, PassCommand, "grinding/pass_command", self._on_pass_command, LATCHED,
-                          self.diagnostics, "pass_command", owner_node=owner["pass_command"])
+                          diagnostics=self.diagnostics, name="pass_command", owner_node=owner["pass_command"])
         info_subscription(self, ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED,
-                          self.diagnostics, "trajectory", owner_node=owner["trajectory"])
+                          diagnostics=self.diagnostics, name="trajectory", owner_node=owner["trajectory"])
         info_subscription(self, Float64, "~/setpoint", lambda m: self.loop.on_setpoint(m.data, self._clock_ns()), 10,
-                          self.diagnostics, "setpoint")
-        info_subscription(self, WrenchStamped, "plant/wrench", self._on_wrench, 100, self.diagnostics,
-                          "measurement", owner_node=owner["measurement"])
+                          diagnostics=self.diagnostics, name="setpoint")
+        info_subscription(self, WrenchStamped, "plant/wrench", self._on_wrench, 100, diagnostics=self.diagnostics,
+                          name="measurement", owner_node=owner["measurement"])
         self.create_subscription(LoadPrediction, "load_predictor/force/prediction",
                                  lambda m: self.loop.on_prediction(m.prediction, m.mean), 10)
         if not self.loop.measurement_triggered:

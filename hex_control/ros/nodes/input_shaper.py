@@ -92,10 +92,11 @@ class InputShaperNode(Node):
         # setpoints must not be dropped: a queue of 100 samples (0.5 s at 200 Hz) each way
         self._publisher = self.create_publisher(self._type, self.get_parameter("output_topic").value, 100)
         info_subscription(self, self._type, self.get_parameter("input_topic").value, self._on_sample, 100,
-                          self.diagnostics, "samples", owner_node=self.get_parameter("sample_owner").value)
+                          diagnostics=self.diagnostics, name="samples",
+                          owner_node=self.get_parameter("sample_owner").value)
         self._path_publisher = self.create_publisher(ToolPath, "motion/tool_path", LATCHED)
-        info_subscription(self, ToolPath, "motion/tool_path_raw", self._on_path, PATHS_IN, self.diagnostics,
-                          "tool_path_raw", owner_node=self.get_parameter("tool_path_owner").value)
+        info_subscription(self, ToolPath, "motion/tool_path_raw", self._on_path, PATHS_IN, diagnostics=self.diagnostics,
+                          name="tool_path_raw", owner_node=self.get_parameter("tool_path_owner").value)
         self.add_on_set_parameters_callback(self._validate)
         self.add_post_set_parameters_callback(self._apply)
         self.diagnostics.set("shaper", self.core.label)

@@ -82,11 +82,11 @@ class KinematicsNode(Node):
         self.diagnostics.set("machine", self.core.machine.name)
         self.create_service(ForwardKinematics, "~/forward_kinematics", self._on_forward)
         self._command = self.create_publisher(JointState, "plant/strut_command", 100)
-        info_subscription(self, PoseStamped, "motion/setpoint", self._on_setpoint, 100, self.diagnostics, "setpoint",
-                          owner_node=self.settings.setpoint_owner)
+        info_subscription(self, PoseStamped, "motion/setpoint", self._on_setpoint, 100, diagnostics=self.diagnostics,
+                          name="setpoint", owner_node=self.settings.setpoint_owner)
         self._trajectory = self.create_publisher(JointTrajectory, "plant/strut_trajectory", LATCHED)
-        info_subscription(self, ToolPath, "motion/tool_path", self._on_path, PATHS_IN, self.diagnostics, "tool_path",
-                          owner_node=self.settings.tool_path_owner)
+        info_subscription(self, ToolPath, "motion/tool_path", self._on_path, PATHS_IN, diagnostics=self.diagnostics,
+                          name="tool_path", owner_node=self.settings.tool_path_owner)
 
     def companions(self) -> list[Companion]:
         """The nodes that serve the heavy services under this node's name (spin each apart)."""

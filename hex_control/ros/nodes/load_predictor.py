@@ -122,8 +122,8 @@ class LoadPredictorNode(Node):
         self.input_topic = input_topic_name(p("input_topic").value, relative_to, self.get_namespace())
         owners = [input_topic_name(name.strip(), relative_to, self.get_namespace())
                   for name in p("input_owner").value.split(",") if name.strip()]
-        info_subscription(self, input_class, self.input_topic, self._on_measurement, depth, self.diagnostics,
-                          "measurements", owner_node=tuple(owners) or None)
+        info_subscription(self, input_class, self.input_topic, self._on_measurement, depth,
+                          diagnostics=self.diagnostics, name="measurements", owner_node=tuple(owners) or None)
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
         self._jump_handler = self.get_clock().create_jump_callback(

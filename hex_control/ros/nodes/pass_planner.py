@@ -67,10 +67,12 @@ class PassPlannerNode(Node):
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", ifc.LATCHED)
         self.result_pub = self.create_publisher(PassResult, "grinding/pass_result", ifc.RESULTS)
         self.path_pub = self.create_publisher(ToolPath, "motion/tool_path_raw", ifc.LATCHED)
-        info_subscription(self, PassCommand, "grinding/pass_command", self._on_command, ifc.LATCHED, self.diagnostics,
-                          "pass_command", self.get_parameter("command_owner").value)
-        info_subscription(self, ContourMsg, "grinding/contour", self._on_contour, ifc.LATCHED, self.diagnostics,
-                          "contour", self.get_parameter("contour_owner").value)
+        info_subscription(self, PassCommand, "grinding/pass_command", self._on_command, ifc.LATCHED,
+                          diagnostics=self.diagnostics,
+                          name="pass_command", owner_node=self.get_parameter("command_owner").value)
+        info_subscription(self, ContourMsg, "grinding/contour", self._on_contour, ifc.LATCHED,
+                          diagnostics=self.diagnostics,
+                          name="contour", owner_node=self.get_parameter("contour_owner").value)
         wall_timer(self, 0.02, self._poll)
 
     def _on_contour(self, msg: ContourMsg) -> None:

@@ -76,7 +76,8 @@ class PlantNode(Node):
         self.core, self.workpiece = build_core(p, self, NodeEvents(self.get_logger(), self.diagnostics))
         period_s = p("control_period_s")
         self.streams = PlantStreams(self, self.core.strut_names, period_s, p("clock_period_s"),
-                                    p("telemetry_period_s"), p("debug_streams"), self.workpiece is not None)
+                                    telemetry_period_s=p("telemetry_period_s"), debug_streams=p("debug_streams"),
+                                    grinding=self.workpiece is not None)
         for topic, msg_type, callback, qos, owner, name in (
                 ("plant/force_axis_command", ForceAxisCommand, self._on_force_command, 100, "force_command_owner",
                  "force_command"),
@@ -84,7 +85,8 @@ class PlantNode(Node):
                  "strut_command"),
                 ("plant/strut_trajectory", JointTrajectory, self._on_strut_trajectory, LATCHED,
                  "strut_command_owner", "strut_trajectory")):
-            info_subscription(self, msg_type, topic, callback, qos, self.diagnostics, name, self._owner(owner))
+            info_subscription(self, msg_type, topic, callback, qos, diagnostics=self.diagnostics, name=name,
+                              owner_node=self._owner(owner))
         if self.workpiece is not None:
             if p("workpiece_file") and os.path.isfile(p("workpiece_file")):
                 self.get_logger().info(f"took up the workpiece of {p('workpiece_file')}: {self.workpiece.passes} "
@@ -92,11 +94,12 @@ class PlantNode(Node):
             self.contour_publisher = self.create_publisher(ContourMsg, "grinding/contour", LATCHED)
             self.result_publisher = self.create_publisher(PassResult, "grinding/pass_result", RESULTS)
             info_subscription(self, ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, LATCHED,
-                              self.diagnostics, "force_trajectory", self._owner("force_trajectory_owner"))
+                              diagnostics=self.diagnostics, name="force_trajectory",
+                              owner_node=self._owner("force_trajectory_owner"))
             if p("controller_status_topic"):
                 info_subscription(self, DiagnosticStatus, p("controller_status_topic"), self._on_controller_status,
-                                  LATCHED, self.diagnostics, "controller_status",
-                                  self._owner("controller_status_owner"))
+                                  LATCHED, diagnostics=self.diagnostics, name="controller_status",
+                                  owner_node=self._owner("controller_status_owner"))
             self.contour_publisher.publish(self._contour_message(self.core.sim.cell.contour, self.workpiece.job_id,
                                                                  self.workpiece.passes))
             if self.workpiece.last_result is not None:  # the same message again, in case nobody had taken it in

@@ -74,7 +74,7 @@ class PlantStreams:
     (while subscribed) and, with ``debug_streams``, the true wrench, deflection and centre."""
 
     def __init__(self, node, strut_names: list[str], period_s: float, clock_period_s: float,
-                 telemetry_period_s: float, debug_streams: bool, grinding: bool):
+                 *, telemetry_period_s: float, debug_streams: bool, grinding: bool):
         self.strut_names, self.period_s, self.debug_streams = strut_names, period_s, debug_streams
         self.clock_period_s, self.telemetry_period_s = clock_period_s, telemetry_period_s
         self.next_clock_s = 0.0

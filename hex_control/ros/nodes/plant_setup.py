@@ -134,15 +134,17 @@ def build_core(p, outputs, events) -> tuple[PlantCore, StoredWorkpiece | None]:
     if p("grinding"):
         workpiece = _workpiece(p)
         variation = ProcessVariation(**{n: p(n) for n in VARIATION_PARAMETERS})
-        cell = GrindingCell(workpiece.contour, config.model, variation, p("seed"), table.contact_mm, config.step_mm,
-                            period_s, p("burn_coefficient") or None)
+        cell = GrindingCell(workpiece.contour, config.model, variation, p("seed"), table_contact_mm=table.contact_mm,
+                            step_mm=config.step_mm,
+                            control_period_s=period_s, burn_coefficient=p("burn_coefficient") or None)
         locator = ToolLocator(machine_geometry, config.frame)
         monitor = PassMonitor(cell, p("settle_deflection_mm"), max_settle_s=p("max_settle_s"),
                               command_timeout_s=p("command_timeout_s"), interrupted=workpiece.started)
     speed, acceleration = machine_geometry.joint_speed_max_mm_s, machine_geometry.joint_acceleration_max_mm_s2
     limiter = StrutRateLimiter(speed / 1000.0, acceleration / 1000.0) if np.all(np.isfinite(
         [speed, acceleration])) else None  # a machine file without limits: strokes only
-    sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), p("table_start_mm"), cell, locator, limiter)
+    sim = PlantSimulator(table, machine, p("internal_step_s"), p("seed"), table_start_mm=p("table_start_mm"),
+                         cell=cell, locator=locator, strut_limiter=limiter)
     limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)
     settings = CoreSettings(p("mode"), period_s, p("real_time_factor"), p("command_timeout_s"), p("retract_mm"),
                             p("table_start_mm"), p("end_time_s"), bool(p("controller_status_topic")))

@@ -86,8 +86,8 @@ class SequencePlannerNode(Node):
                 (PassResult, "grinding/pass_result", lambda m, source: core.on_result(_report(m), source, now()),
                  RESULTS, "result", ("plant", "pass_planner")),
                 (Contour, "grinding/contour", lambda m: core.on_scan(
-                    m.job_id, m.pass_index, m.x_mm, m.z_mm, m.parent_mm, m.bead_width_mm, _ns(m.header.stamp),
-                    now()), LATCHED, "contour", "plant"),
+                    m.job_id, m.pass_index, m.x_mm, m.z_mm, parent_mm=m.parent_mm, width_mm=m.bead_width_mm,
+                    stamp_ns=_ns(m.header.stamp), now_s=now()), LATCHED, "contour", "plant"),
                 (DiagnosticStatus, "pass_planner/status", lambda m: core.on_pass_planner_status(*_status(m), now()),
                  LATCHED, "pass_planner_status", "pass_planner"),
                 (LoadPrediction, "load_predictor/pass/prediction", lambda m: core.on_prediction(
@@ -95,8 +95,9 @@ class SequencePlannerNode(Node):
                 (ForceTrajectory, "grinding/force_trajectory", lambda m: core.on_trajectory(
                     m.job_id, m.pass_index, m.normal_force_n, m.planned_cut_depth_mm), LATCHED, "trajectory",
                  "pass_planner")):
-            info_subscription(self, msg_type, topic, lambda *m, on=on: self._do(on(*m)), qos, self.diagnostics,
-                              name, owner_node=owner, with_source=msg_type is PassResult)
+            info_subscription(self, msg_type, topic, lambda *m, on=on: self._do(on(*m)), qos,
+                              diagnostics=self.diagnostics,
+                              name=name, owner_node=owner, with_source=msg_type is PassResult)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=self._on_goal, handle_accepted_callback=lambda handle: self._do(
                                        self.core.accept(_goal(handle.request), handle, now())),

@@ -40,7 +40,7 @@ class Recorder:
     """Records into ``writer`` on ``node``'s executor: ``topics`` (full names), or all of them,
     or all under the namespace ``under``."""
 
-    def __init__(self, node, writer: BagWriter, topics=None, all_topics: bool = False, on_first=None,
+    def __init__(self, node, writer: BagWriter, topics=None, all_topics: bool = False, *, on_first=None,
                  under: str = ""):
         if not all_topics and not topics:
             raise ValueError("record which topics? give some, or all")
@@ -120,7 +120,7 @@ def record(output: str, topics, all_topics: bool, duration_s: float | None) -> i
 
 
 def play(directory: str, rate: float, topics=None, wait_s: float = 0.0, loop: bool = False,
-         clock_hz: float | None = None, remaps=None) -> int:
+         *, clock_hz: float | None = None, remaps=None) -> int:
     """``hexctl play``: publish a recording's messages (raw) at ``rate`` times their recorded
     pace (:func:`hex_control.recording.playback.paced`: against the recorded timeline),
     each topic with the durability and reliability it was offered with, under its name or

@@ -46,6 +46,7 @@ class ChatterCase:
         """The seed's four programmes and the optimal-linear one (a fresh controller)."""
         o = self.optimal
         return {**seed_programmes(self.low_rpm, self.high_rpm),
-                "optimal-linear": OptimalLinearSpeed(self.modes, self.cut, self.low_rpm, o["max_rpm"], o["fall_s"],
-                                                     o["acceleration_rpm_s"], o["q1"], o["q2"], o["r"],
-                                                     o["control_period_s"])}
+                "optimal-linear": OptimalLinearSpeed(self.modes, self.cut, self.low_rpm, o["max_rpm"],
+                                                     fall_s=o["fall_s"], acceleration_rpm_s=o["acceleration_rpm_s"],
+                                                     q1=o["q1"], q2=o["q2"], r=o["r"],
+                                                     control_period_s=o["control_period_s"])}

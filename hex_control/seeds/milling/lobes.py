@@ -45,7 +45,7 @@ class Lobe:
 
 
 def stability_lobes(tip_frf, teeth: int, cutting_pressure_pa: float, force_ratio: float,
-                    start_rad: float, exit_rad: float, chatter_hz: np.ndarray, lobes=range(6)) -> list[Lobe]:
+                    start_rad: float, *, exit_rad: float, chatter_hz: np.ndarray, lobes=range(6)) -> list[Lobe]:
     """The lobes k in ``lobes`` over the candidate chatter frequencies (Hz); tip_frf(w) is the
     tip receptance (m/N) at angular frequency w (rad/s). Frequencies where no eigenvalue gives
     a positive depth are dropped."""

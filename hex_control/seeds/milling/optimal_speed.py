@@ -38,7 +38,7 @@ def mean_cutting_force(cut: Cut, samples: int = 720) -> np.ndarray:
 class OptimalLinearSpeed:
     """A spindle programme (``speed_rpm(time_s, simulator)``) driven by eq. 18."""
 
-    def __init__(self, modes: ToolModes, cut: Cut, nominal_rpm: float, max_rpm: float, fall_s: float,
+    def __init__(self, modes: ToolModes, cut: Cut, nominal_rpm: float, max_rpm: float, *, fall_s: float,
                  acceleration_rpm_s: float, q1: float = 1.0, q2: float = 1.0, r: float = 1e-12,
                  control_period_s: float = 1e-3):
         if not (0 < nominal_rpm < max_rpm and fall_s > 0 and acceleration_rpm_s > 0 and r > 0

@@ -36,7 +36,7 @@ def plot_programmes(path, results: list[ProgrammeResult]) -> None:
     save(fig, path)
 
 
-def plot_lobes(path, lobes, speeds_rpm, depth_limit_m, checked, operating) -> None:
+def plot_lobes(path, lobes, speeds_rpm, depth_limit_m, checked, *, operating) -> None:
     """lobes: zero-order Lobe list; depth_limit_m: their boundary at speeds_rpm; checked:
     (speed, semi-discretization critical depth) pairs; operating: (speed, depth, label)."""
     fig, ax = plt.subplots(figsize=(9, 4.5))

@@ -82,7 +82,7 @@ def spectral_radius(modes: ToolModes, cut: Cut, speed_rpm: float, intervals: int
 
 
 def critical_depth(modes: ToolModes, cut: Cut, speed_rpm: float, low_m: float, high_m: float,
-                   tolerance_m: float = 1e-7, intervals: int = 40) -> float:
+                   *, tolerance_m: float = 1e-7, intervals: int = 40) -> float:
     """The depth of cut a_p (m) where the cut turns unstable at ``speed_rpm``, by bisection
     between a stable ``low_m`` and an unstable ``high_m``."""
     def radius(depth):

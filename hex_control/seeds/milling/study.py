@@ -21,7 +21,7 @@ def zero_order_lobes(case: ChatterCase):
     f1 = case.modes.omega_rad_s[0] / (2 * math.pi)
     cut = case.cut
     return stability_lobes(case.modes.tip_frf, cut.teeth, cut.cutting_pressure_pa, cut.force_ratio, cut.start_rad,
-                           cut.exit_rad, np.linspace(0.7 * f1, 1.5 * f1, 6000), lobes=range(8))
+                           exit_rad=cut.exit_rad, chatter_hz=np.linspace(0.7 * f1, 1.5 * f1, 6000), lobes=range(8))
 
 
 def lobe_check(case: ChatterCase) -> dict:
@@ -56,7 +56,7 @@ def write_study(output, case: ChatterCase | None = None, progress=None) -> dict:
     if progress:
         progress("lobes")
     operating = [(s, case.cut.depth_m, f"{s:.0f}") for s in (case.low_rpm, case.high_rpm)]
-    plot_lobes(output / "chatter_lobes.png", lobes, speeds, boundary, checked, operating)
+    plot_lobes(output / "chatter_lobes.png", lobes, speeds, boundary, checked, operating=operating)
     base = results[0]
     summary = {
         "first_mode_hz": float(case.modes.omega_rad_s[0] / (2 * math.pi)),

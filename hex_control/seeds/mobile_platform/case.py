@@ -61,4 +61,4 @@ class PlatformCase:
 
     def pid_controller(self, speed=None, turn=None, k=None) -> TwoPidController:
         return TwoPidController(self.model, speed or self.two_pid["speed"], turn or self.two_pid["turn"],
-                                float(k or self.two_pid["k"]), self.period_s)
+                                float(k or self.two_pid["k"]), period_s=self.period_s)

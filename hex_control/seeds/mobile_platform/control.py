@@ -98,7 +98,7 @@ class EnergyIndexController:
 
 
 class TwoPidController:
-    def __init__(self, model: PlatformParameters, speed_gains, turn_gains, k: float, period_s: float,
+    def __init__(self, model: PlatformParameters, speed_gains, turn_gains, k: float, *, period_s: float,
                  derivative_filter_s: float = 0.05):
         """speed_gains, turn_gains: (kp, ki, kd) in V per (m/s) and V per (rad/s)."""
         if not (k > 0 and period_s > 0) or min(*speed_gains, *turn_gains) < 0:

@@ -58,7 +58,7 @@ def _rk4_step(p: PlatformParameters, state: tuple, voltages, h: float, derivativ
 
 
 def simulate_platform(plant: PlatformParameters, controller, desired: DesiredMotion, period_s: float,
-                      substeps: int = 4, with_friction: bool = True, lagrange: bool = False,
+                      substeps: int = 4, *, with_friction: bool = True, lagrange: bool = False,
                       encoder_counts_per_rev: int = 0) -> PlatformRecord:
     """Run the whole desired motion from rest with H at the path's start; the controller is
     called once per period with the true state, or with ``encoder_counts_per_rev`` > 0 with

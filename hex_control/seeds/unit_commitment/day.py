@@ -112,7 +112,7 @@ def running_cost(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
 
 
 def _running_cost_near(fleet: Fleet, on: tuple[bool, ...], total_mw: float, lowest_mw: float,
-                       highest_mw: float, energy_price: float) -> float:
+                       highest_mw: float, *, energy_price: float) -> float:
     """:func:`running_cost` at the total nearest ``total_mw`` within [lowest, highest] that
     ``on``'s units can generate, plus the difference at ``energy_price``; inf if none."""
     low = max(lowest_mw, sum(u.g_min_mw for u, state in zip(fleet.units, on) if state))
@@ -129,7 +129,7 @@ def hours_down(initially_on, n_units: int) -> tuple[int, ...]:
 
 
 def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ...], reach_mw=None,
-                       energy_price: float = 0.0) -> DaySchedule:
+                       *, energy_price: float = 0.0) -> DaySchedule:
     """DP over the hours, each hour's commitments from ``options(t)``, from every unit's
     hours ``down`` (0: on); a state is those down times, with the cheapest day into it.
     ``reach_mw``: (lowest, highest) total of each hour that the store could make up;
@@ -142,7 +142,7 @@ def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ..
     for t, total in enumerate(generation_mw):
         following = {}
         lowest, highest = (total, total) if reach_mw is None else (reach_mw[0][t], reach_mw[1][t])
-        costs = [(on, _running_cost_near(fleet, on, float(total), lowest, highest, energy_price))
+        costs = [(on, _running_cost_near(fleet, on, float(total), lowest, highest, energy_price=energy_price))
                  for on in options(t)]
         costs = [(on, cost) for on, cost in costs if np.isfinite(cost)]
         for down, (day_cost, starting, path) in states.items():
@@ -172,7 +172,7 @@ def exact_schedule(fleet: Fleet, generation_mw, initially_on=None) -> DaySchedul
 
 
 def schedule_from_table(fleet: Fleet, generation_mw, table: list[TableRow], initially_on=None,
-                        also=None, borrow: int = 2) -> DaySchedule:
+                        also=None, *, borrow: int = 2) -> DaySchedule:
     """The cheapest day whose hours each use one of the table's candidates at their
     generation (:func:`~hex_control.seeds.unit_commitment.table.candidates_at`), one of the
     ``borrow`` cheapest at another hour's generation (so that a unit may stay on through
@@ -267,10 +267,10 @@ def cheapest_transfers(fleet: Fleet, commitments, demand_mw, storage: Storage, t
     stored = storage.stored_mwh(r)
     if np.all(stored >= storage.s_min_mwh - 1e-6) and np.all(stored <= storage.s_max_mwh + 1e-6):
         return r
-    return _transfers_within_the_store(hours, demand, storage, transfer_total_mwh, lower, upper, r)
+    return _transfers_within_the_store(hours, demand, storage, transfer_total_mwh, lower, upper=upper, start=r)
 
 
-def _transfers_within_the_store(hours, demand, storage, transfer_total_mwh, lower, upper, start):
+def _transfers_within_the_store(hours, demand, storage, transfer_total_mwh, lower, *, upper, start):
     n = len(demand)
     cumulative = np.tril(np.ones((n, n)))
     constraints = [{"type": "eq", "fun": lambda r: np.sum(r) - transfer_total_mwh, "jac": lambda r: np.ones(n)},
@@ -318,7 +318,7 @@ class DayPlan:
 
 
 def deterministic_schedule(fleet: Fleet, demand_mw, storage: Storage, table: list[TableRow],
-                           initially_on=None, max_rounds: int = 10, also=None) -> DayPlan:
+                           initially_on=None, *, max_rounds: int = 10, also=None) -> DayPlan:
     """The off-line algorithm of section 3 (see the module's docstring); ``also[t]``: a
     commitment to consider in hour t besides the table's (e.g. another day's plan)."""
     demand = np.asarray(demand_mw, float)

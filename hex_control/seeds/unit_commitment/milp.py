@@ -49,7 +49,7 @@ class MilpDay:
 
 
 def milp_schedule(fleet: Fleet, demand_mw, storage: Storage, initially_on=None, tangents: int = 12,
-                  mip_rel_gap: float = 1e-4, time_limit_s: float | None = None) -> MilpDay:
+                  *, mip_rel_gap: float = 1e-4, time_limit_s: float | None = None) -> MilpDay:
     demand = np.asarray(demand_mw, float)
     n_hours, n_units = demand.size, len(fleet)
     on_before = np.ones(n_units, bool) if initially_on is None else np.array(initially_on, bool)

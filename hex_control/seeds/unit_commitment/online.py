@@ -146,7 +146,7 @@ class OnlineScheduler:
     demand (:func:`fluctuation_scenarios`, seeded by ``seed``)."""
 
     def __init__(self, fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
-                 predictor: OneStepPredictor, scenarios: int = 24, seed: int = 0):
+                 *, predictor: OneStepPredictor, scenarios: int = 24, seed: int = 0):
         if scenarios < 1:
             raise ValueError(f"need at least one scenario, got {scenarios}")
         self.fleet, self.table, self.plan, self.storage, self.predictor = fleet, table, plan, storage, predictor
@@ -207,7 +207,8 @@ class OnlineScheduler:
         price = float(np.mean(incremental_costs(self.fleet, planned[t:], generation)))
         for reach in (None, self._reach(predicted_mw[t:], generation)):  # the DP refusing short ones, and not
             try:
-                replan = search_commitments(self.fleet, generation, lambda k: options[k], self.down, reach, price)
+                replan = search_commitments(self.fleet, generation, lambda k: options[k], self.down, reach,
+                                            energy_price=price)
                 paths.insert(0, replan.commitments)
             except ValueError:
                 pass
@@ -363,14 +364,14 @@ class OnlineComparison:
 
 
 def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
-                   fluctuation: LoadFluctuation, days: int, rng: np.random.Generator, history_days: int = 80,
+                   fluctuation: LoadFluctuation, *, days: int, rng: np.random.Generator, history_days: int = 80,
                    progress=None) -> OnlineComparison:
     """``days`` consecutive days of demand (one fluctuation process), each scheduled on-line;
     ``progress(day, days)`` after each."""
     from hex_control.seeds.unit_commitment.day import deterministic_schedule
 
     predictor, found = identified_predictor(fluctuation, history_days * plan.demand_mw.size, rng)
-    scheduler = OnlineScheduler(fleet, table, plan, storage, predictor)
+    scheduler = OnlineScheduler(fleet, table, plan, storage, predictor=predictor)
     hours = plan.demand_mw.size
     fluctuations, measurements = fluctuation.draw(days * hours, rng)
     over_plan, over_hindsight, unplanned = [], [], 0

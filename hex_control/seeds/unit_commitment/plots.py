@@ -33,7 +33,7 @@ def plot_table(path, fleet: Fleet, rows: list[TableRow]) -> None:
     save(fig, path)
 
 
-def plot_day(path, fleet: Fleet, demand_mw, transfers_mw, commitments, title: str) -> None:
+def plot_day(path, fleet: Fleet, demand_mw, transfers_mw, commitments, *, title: str) -> None:
     """A day's generation stacked by unit (largest first), the demand and G = L + r, and
     below the store's transfers and stored energy."""
     demand, transfers = np.asarray(demand_mw, float), np.asarray(transfers_mw, float)

@@ -57,7 +57,7 @@ def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, mi
     plan = deterministic_schedule(fleet, day.demand_mw, day.storage, rows)
     seconds = time.perf_counter() - start
     plot_day(output / f"day_{fleet.name}.png", fleet, plan.demand_mw, plan.transfers_mw, plan.schedule.commitments,
-             f"Off-line schedule of {fleet.name}: cost {plan.total_cost:,.0f} "
+             title=f"Off-line schedule of {fleet.name}: cost {plan.total_cost:,.0f} "
              f"(starts {plan.schedule.starting_cost:,.0f})")
     summary = {"fleet": fleet.name, "cost": plan.total_cost, "running_cost": plan.schedule.running_cost,
                "starting_cost": plan.schedule.starting_cost, "unit_cost_per_mwh": plan.unit_cost,
@@ -78,7 +78,7 @@ def schedule_day(fleet_file: str, output, k: int = 5, step_mw: float = 100.0, mi
 
 
 def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, relative_std: float = 0.0142,
-               a: float = 0.8, seed: int = 0, k: int = 5, step_mw: float = 100.0,
+               *, a: float = 0.8, seed: int = 0, k: int = 5, step_mw: float = 100.0,
                unbounded_store: bool = False) -> dict:
     """Both load models on-line; ``unbounded_store``: the store's energy without bounds (its
     rates kept)."""
@@ -93,8 +93,9 @@ def run_online(fleet_file: str, output, days: int = 40, history_days: int = 80, 
         fluctuation = LoadFluctuation(kind, relative_std, a)
         plan = deterministic_schedule(fleet, day.demand_mw, reserved_store(store, day.demand_mw, fluctuation), rows)
         with tqdm(total=days, desc=f"on-line {kind}", unit="day") as bar:
-            comparison = compare_online(fleet, rows, plan, store, fluctuation, days, np.random.default_rng(seed),
-                                        history_days, progress=lambda done, total: bar.update(done - bar.n))
+            comparison = compare_online(fleet, rows, plan, store, fluctuation, days=days,
+                                        rng=np.random.default_rng(seed), history_days=history_days,
+                                        progress=lambda done, total: bar.update(done - bar.n))
         comparisons.append(comparison)
         summary["models"][kind] = {
             name: {"mean_percent": 100 * float(values.mean()),

@@ -71,7 +71,7 @@ def next_level_mw(fleet: Fleet, total_mw: float, step_mw: float, resolution_mw: 
 
 
 def scheduling_table(fleet: Fleet, k: int = 5, step_mw: float = 100.0, resolution_mw: float = 1.0,
-                     start_mw: float | None = None, end_mw: float | None = None, progress=None) -> list[TableRow]:
+                     start_mw: float | None = None, *, end_mw: float | None = None, progress=None) -> list[TableRow]:
     """The table's rows from ``start_mw`` (the least a single unit can give) to ``end_mw``
     (the fleet's capacity); ``progress(level_mw, end_mw)`` after each row."""
     if not (step_mw > 0 and resolution_mw > 0):

@@ -66,7 +66,7 @@ def publishers_qos(publishers, depth: int = 100) -> QoSProfile:
     return qos
 
 
-def _subscribe_class_and_qos(node, topic: str, end: float, timeout_s: float, durability=None, reliability=None,
+def _subscribe_class_and_qos(node, topic: str, end: float, timeout_s: float, durability=None, *, reliability=None,
                              depth=None):
     publishers = _publishers(node, topic, end, timeout_s)
     type_name = publishers[0].topic_type
@@ -131,14 +131,15 @@ def topic_info(topic: str, verbose: bool, wait_s: float) -> int:
     return 0
 
 
-def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float, durability=None, reliability=None,
+def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float, *, durability=None, reliability=None,
                depth=None) -> int:
     """Print messages; ``timeout_s`` bounds the wait for the first one (discovery included):
     none by then is exit 2."""
     topic = absolute(topic)
     end = time.monotonic() + timeout_s
     with cli_node("hexctl_topic_echo") as node:
-        cls, qos = _subscribe_class_and_qos(node, topic, end, timeout_s, durability, reliability, depth)
+        cls, qos = _subscribe_class_and_qos(node, topic, end, timeout_s, durability, reliability=reliability,
+                                            depth=depth)
         received = []
 
         def on_message(msg):
@@ -189,7 +190,7 @@ def topic_hz(topic: str, window: int, duration_s: float, timeout_s: float) -> in
     return 0
 
 
-def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: int, wait_s: float,
+def topic_pub(topic: str, type_name: str, values: str, rate_hz: float, times: int, *, wait_s: float,
               durability=None, reliability=None, depth=None) -> int:
     topic = absolute(topic)
     try:
