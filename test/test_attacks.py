@@ -331,6 +331,8 @@ def test_a_goal_for_another_bead_is_rejected_at_goal_response(attack):
     0.35 mm left; here the plant holds 60 mm and the goal says 300 mm."""
     a = attack()
     a.session.wait_until_ready()
+    a.spin_until(lambda: (status := a.status("/sequence_planner")) is not None and any(
+        v.key == "scanned_bead" for v in status.values), "the sequence planner to hold the plant's scan", 60.0)
     client = ActionClient(a.rogue, GrindBead, "sequence_planner/grind_bead")
     try:
         goal = GrindBead.Goal(job_id="wrong-bead", bead_height_mm=0.8, bead_width_mm=12.5, bead_length_mm=300.0,
