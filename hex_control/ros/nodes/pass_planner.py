@@ -4,9 +4,8 @@ checks against the scan and the parent, the refusals -- is the core
 :class:`hex_control.grinding.pass_session.PassSession`; this node converts messages, plans
 on a worker thread, asks TestPose (``reachability_service``; '' = none) and publishes.
 
-In: /grinding/pass_command (``command_owner``'s), /grinding/contour (``contour_owner``'s). Out:
-/grinding/force_trajectory, /motion/tool_path_raw, ~/status (per command: OK "received", then
-OK/WARN + summary or ERROR + why), /grinding/pass_result (REJECTED + why), /diagnostics.
+In: /grinding/pass_command, /grinding/contour (each from its owner). Out: /grinding/force_trajectory,
+/motion/tool_path_raw, ~/status ("received", then planned or why not), /grinding/pass_result (REJECTED).
 """
 
 from __future__ import annotations
@@ -67,12 +66,11 @@ class PassPlannerNode(Node):
         self.status_pub = self.create_publisher(DiagnosticStatus, "~/status", ifc.LATCHED)
         self.result_pub = self.create_publisher(PassResult, "grinding/pass_result", ifc.RESULTS)
         self.path_pub = self.create_publisher(ToolPath, "motion/tool_path_raw", ifc.LATCHED)
-        info_subscription(self, PassCommand, "grinding/pass_command", self._on_command, ifc.LATCHED,
-                          diagnostics=self.diagnostics,
-                          name="pass_command", owner_node=self.get_parameter("command_owner").value)
-        info_subscription(self, ContourMsg, "grinding/contour", self._on_contour, ifc.LATCHED,
-                          diagnostics=self.diagnostics,
-                          name="contour", owner_node=self.get_parameter("contour_owner").value)
+        for msg_type, topic, callback, name, owner in (
+                (PassCommand, "grinding/pass_command", self._on_command, "pass_command", "command_owner"),
+                (ContourMsg, "grinding/contour", self._on_contour, "contour", "contour_owner")):
+            info_subscription(self, msg_type, topic, callback, ifc.LATCHED, diagnostics=self.diagnostics, name=name,
+                              owner_node=self.get_parameter(owner).value)
         wall_timer(self, 0.02, self._poll)
 
     def _on_contour(self, msg: ContourMsg) -> None:
