@@ -7,7 +7,8 @@ import json
 import pytest
 
 from hex_control.cli import main
-from hex_control.ros.app.grind_job import RUN_DEFAULTS, RUN_FILE, NodeDied, run_options, store_run_options
+from hex_control.grinding.run_files import RUN_DEFAULTS, RUN_FILE, run_options, store_run_options
+from hex_control.ros.app.grind_job import NodeDied
 
 
 def test_a_fresh_run_takes_the_given_options_over_the_defaults():

@@ -33,7 +33,7 @@ def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
     """The sequence planner resumes any unfinished job in its job directory: a demo run
     again into the same output after one was cut off moves that log aside and starts clean;
     finished logs stay where they are."""
-    from hex_control.ros.app.grind_job import fresh_job_dir
+    from hex_control.grinding.run_files import fresh_job_dir
 
     jobs = tmp_path / "jobs"
     jobs.mkdir()

@@ -10,7 +10,7 @@ MACHINES = {"hexapod": "machines/nist_ingersoll.yaml", "pru3": "machines/pru3_fe
 
 
 def add_parsers(commands) -> None:
-    # the run's options default to None here (hex_control.ros.app.grind_job.RUN_DEFAULTS fills
+    # the run's options default to None here (hex_control.grinding.run_files.RUN_DEFAULTS fills
     # them): --resume must tell an option given from one left out
     demo = commands.add_parser("demo", help="the main job: the whole hierarchy grinds a weld bead on the plant",
                                epilog="exit codes: 0 the job(s) ended as the policy intended, without burn; 1 not; "
@@ -83,7 +83,8 @@ def add_parsers(commands) -> None:
 def _demo(args) -> int:
     """``hexctl demo``: the run's options (resumed: the stored ones, a conflict refused), the
     run; a graph that fails (a node died, the loop stood) is one line on stderr and exit 3."""
-    from hex_control.ros.app.grind_job import RUN_DEFAULTS, GraphFailure, resumable_job_dir, run_demo, run_options
+    from hex_control.grinding.run_files import RUN_DEFAULTS, resumable_job_dir, run_options
+    from hex_control.ros.app.grind_job import GraphFailure, run_demo
 
     given = {name: getattr(args, name) for name in RUN_DEFAULTS if getattr(args, name) is not None}
     if args.resume is not None:
@@ -135,9 +136,9 @@ def _campaign(args) -> int:
 
     from hex_control.campaign import campaign_record, gather, run_campaign, seeded_jobs, write_campaign
     from hex_control.campaign.executors import ProcessExecutor, RayExecutor
-    from hex_control.grinding.job_report import job_statistics
+    from hex_control.grinding.job_report import job_line, job_statistics
+    from hex_control.grinding.run_files import RUN_DEFAULTS, run_options
     from hex_control.ros.app.campaign_cell import campaign_settings, grind_cell, tolerance_mm
-    from hex_control.ros.app.grind_job import RUN_DEFAULTS, job_line, run_options
 
     given = {name: getattr(args, name, None) for name in RUN_DEFAULTS if getattr(args, name, None) is not None}
     options = run_options(given)

@@ -289,3 +289,41 @@ def _plan_error(passes: list) -> dict:
                                    "mean_absolute_relative": float(np.mean(np.abs(measured - planned) / planned)),
                                    "mean_relative": float(np.mean((measured - planned) / planned)),
                                    "passes": len(pairs)}}
+
+
+# -- the report as text: the pass table's rows, a job's line ---------------------------------
+def pass_row(index: int, command: dict, result: dict, guard_cut_mm: float | None = None) -> str:
+    """One row of the pass table (:data:`PASS_TABLE_HEADER`); ``guard_cut_mm``: the depth the
+    pass planner's force or stall guard planned instead of the command's, shown with a *."""
+    quality = result["part_quality"]
+    cut = f"{command['cut_depth_mm']:>8.4f}" if guard_cut_mm is None else f"{guard_cut_mm:>7.4f}*"
+    return (f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
+            f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
+            f"{cut} "
+            f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
+            f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} "
+            f"{quality['gouge_mm']:>6.3f} {quality['highest_mm']:>6.3f} {result['status']}")
+
+
+PASS_TABLE_HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'K1 plan':>7} {'plan mm':>8} "
+          f"{'meas mm':>8} "
+          f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} {'gouge':>6} {'high':>6} status")
+
+
+def part_text(summary: dict) -> str:
+    """The part's figures from a job's summary, in one clause."""
+    q = summary["part_quality"]
+    if q is None:
+        return "part not scanned"
+    return (f"part: gouge {q['gouge_mm']:.3f} mm at x = {q['gouge_x_mm']:.0f} mm, highest {q['highest_mm']:+.3f} mm, "
+            f"RMS {q['rms_mm']:.3f} mm ({'within' if summary['part_within_tolerance'] else 'outside'} "
+            f"+-{TOLERANCE_MM:g} mm)")
+
+
+def job_line(seed: int, summary: dict) -> str:
+    """The line printed for a job that ran (``hexctl demo``, ``hexctl campaign``)."""
+    o = summary["outcome"]
+    return (f"job {seed}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
+            f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
+            f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {part_text(summary)}; "
+            f"{summary['simulated_pass_time_s']:.0f} s of passes in {summary['wall_s']:.0f} s wall")

@@ -12,7 +12,6 @@ The same command lines work with the console scripts (``hex-plant`` ...) or
 from __future__ import annotations
 
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -21,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from hex_control.config import config_file, node_parameters
+from hex_control.grinding.run_files import validated_namespace
 
 SIM_TIME = ["-p", "use_sim_time:=true"]  # only where a node reads the clock: the rest run on stamps and wall timers
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
@@ -103,14 +103,6 @@ def predictor_arguments(name: str, namespace: str = "") -> tuple[str, ...]:
     (``input_namespace: parent``)."""
     return ("-r", f"__ns:={namespace}/load_predictor", "-r", f"__node:={name}", "--params-file",
             str(config_file("load_predictor.yaml")))
-
-
-def validated_namespace(namespace: str) -> str:
-    """``namespace`` as ROS writes it (``/cell1``, or '' for the root); ValueError if it is not one."""
-    namespace = namespace.rstrip("/")
-    if namespace and not re.fullmatch(r"(/[A-Za-z][A-Za-z0-9_]*)+", namespace):
-        raise ValueError(f"{namespace!r} is not a namespace: /name[/name...], letters, digits and _")
-    return namespace
 
 
 def stop_hung(process: subprocess.Popen, timeout_s: float) -> int:

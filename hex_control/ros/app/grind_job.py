@@ -8,7 +8,7 @@ pass-by-pass table as the job goes and writes the report (:mod:`hex_control.grin
 
 Exit code 0 only if the job ended as the policy intended (done, or Quit Now); a node that
 dies or a loop that stands ends the run with one line and exit code 3 (:class:`GraphFailure`,
-``hexctl demo``). Each run's options are stored in its directory (``RUN_FILE``) when it
+``hexctl demo``). Each run's options are stored in its directory (``run_files.RUN_FILE``) when it
 starts: ``--resume`` takes them up (its seed), and refuses one given that differs.
 """
 
@@ -31,10 +31,16 @@ from rclpy.node import Node
 
 from hex_control.config import config_file
 from hex_control.grinding.job import read_goal, read_log, unfinished_logs
-from hex_control.grinding.job_report import JobRecord
-from hex_control.grinding.part_quality import TOLERANCE_MM
+from hex_control.grinding.job_report import PASS_TABLE_HEADER, JobRecord, job_line, pass_row
+from hex_control.grinding.run_files import (
+    WORKPIECE_FILE,
+    fresh_job_dir,
+    fresh_recording_dir,
+    resumable_job_dir,
+    store_run_options,
+)
 from hex_control.recording.bag import BagWriter
-from hex_control.ros.app.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges, validated_namespace
+from hex_control.ros.app.graph import MACHINE_SIDE, NodeGraph, graph_nodes, missing_stream_edges
 from hex_control.ros.infra.action_probe import ResponseProbe
 from hex_control.ros.infra.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control.ros.infra.message_info import info_subscription
@@ -170,24 +176,6 @@ class JobObserver(Node):
                 record.struts.append((stamp, *msg.strut_lengths_m[k * n:(k + 1) * n]))
 
 
-def print_row(index: int, command: dict, result: dict, guard_cut_mm: float | None = None) -> None:
-    """One row of the pass table; ``guard_cut_mm``: the depth the pass planner's force or stall
-    guard planned instead of the command's, shown with a *."""
-    quality = result["part_quality"]
-    cut = f"{command['cut_depth_mm']:>8.4f}" if guard_cut_mm is None else f"{guard_cut_mm:>7.4f}*"
-    print(f"{index:>4} {command['material_mm']:>8.3f} {command['time_remaining_s']:>7.1f} "
-          f"{command['force_n']:>6.1f} {command['feed_mm_s']:>6.1f} {command['specific_energy_j_mm3']:>7.1f} "
-          f"{cut} "
-          f"{result['measured_cut_depth_mm']:>8.4f} {result['mean_normal_force_n']:>7.1f} "
-          f"{result['duration_s']:>6.2f} {result['specific_energy_j_mm3']:>7.1f} "
-          f"{quality['gouge_mm']:>6.3f} {quality['highest_mm']:>6.3f} {result['status']}", flush=True)
-
-
-HEADER = (f"{'pass':>4} {'X (mm)':>8} {'t (s)':>7} {'F (N)':>6} {'V mm/s':>6} {'K1 plan':>7} {'plan mm':>8} "
-          f"{'meas mm':>8} "
-          f"{'F meas':>7} {'dur s':>6} {'K1 meas':>7} {'gouge':>6} {'high':>6} status")
-
-
 #: wall seconds the plant's clock may stand still during a pass before the job is given up:
 #: the plant runs on even without a controller, so a clock that stands while a pass has been
 #: announced is a loop nobody answers (between passes it stands while the planners plan)
@@ -229,42 +217,6 @@ def signal_name(number: int) -> str:
         return signal.Signals(number).name
     except ValueError:
         return f"signal {number}"
-
-
-def fresh_recording_dir(output: Path) -> Path:
-    """``output/recording``, an earlier run's moved aside to ``recording-<n>``."""
-    directory = output / "recording"
-    if directory.exists():
-        n = 1
-        while (output / f"recording-{n}").exists():
-            n += 1
-        directory.rename(output / f"recording-{n}")
-    return directory
-
-
-#: in the job directory: the part as the plant last scanned it (:mod:`hex_control.plant.workpiece_store`)
-WORKPIECE_FILE = "workpiece.json"
-
-
-def resumable_job_dir(output: Path) -> Path:
-    """``output/jobs`` of a run that was cut off; ValueError if it holds no unfinished job."""
-    jobs = Path(output) / "jobs"
-    if not (jobs.is_dir() and unfinished_logs(jobs)):
-        raise ValueError(f"{jobs} holds no unfinished job to resume")
-    return jobs
-
-
-def fresh_job_dir(output: Path) -> Path:
-    """``output/jobs`` for this run's sequence planner, which resumes any unfinished job it
-    finds there: an earlier run's that was cut off is moved aside to ``jobs-<n>`` first (a
-    fresh demo must not take up an old job; the drills resume within one run)."""
-    jobs = Path(output) / "jobs"
-    if jobs.is_dir() and unfinished_logs(jobs):
-        n = 1
-        while (aside := jobs.with_name(f"jobs-{n}")).exists():
-            n += 1
-        jobs.rename(aside)
-    return jobs
 
 
 class JobSession:
@@ -473,11 +425,11 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
             resumed = f", resumed after {session.record.first_pass} passes" if resume else ""
             print(f"job {goal['job_id']}: bead {goal['bead_length_mm']:.0f} mm x {goal['bead_width_mm']:g} mm, mean "
                   f"height {goal['material_mm']:.3f} mm, deadline {goal['deadline_s']:g} s{resumed}")
-            print(HEADER)
+            print(PASS_TABLE_HEADER)
 
         def on_pass(index, command, result):
             if not quiet:
-                print_row(index, command, result, session.record.guard_cut_mm(index))
+                print(pass_row(index, command, result, session.record.guard_cut_mm(index)), flush=True)
             if index == restart_planner_after:
                 session.graph.kill("sequence_planner")
                 session.graph.start("sequence_planner")
@@ -489,15 +441,6 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
             print("   * depth cut by the pass planner's force or stall guard (the pass would need more than F_max "
                   "or 80 % of the grinder's power somewhere)")
     return session.record
-
-
-def _part_text(summary: dict) -> str:
-    q = summary["part_quality"]
-    if q is None:
-        return "part not scanned"
-    return (f"part: gouge {q['gouge_mm']:.3f} mm at x = {q['gouge_x_mm']:.0f} mm, highest {q['highest_mm']:+.3f} mm, "
-            f"RMS {q['rms_mm']:.3f} mm ({'within' if summary['part_within_tolerance'] else 'outside'} "
-            f"+-{TOLERANCE_MM:g} mm)")
 
 
 def start_policy(record: JobRecord):
@@ -560,60 +503,6 @@ def use_private_domain(environment) -> bool:
     return True
 
 
-#: in a demo run's directory: the options it was started with, taken up by ``--resume``
-RUN_FILE = "run.json"
-#: ``hexctl demo``'s options that make a run what it is (its command-line names) and their defaults
-RUN_DEFAULTS = {"seed": 0, "deadline": 100.0, "realtime": False, "real_time_factor": 1.0, "bead_length": 300.0,
-                "bead_height": 1.0, "dulling": 0.0, "machine": "hexapod", "namespace": ""}
-
-
-def _normalized(options: dict) -> dict:
-    """Each option as its default's type (60 and 60.0 are one deadline; a namespace as ROS writes it)."""
-    out = {name: type(RUN_DEFAULTS[name])(value) for name, value in options.items()}
-    if "namespace" in out:
-        out["namespace"] = validated_namespace(out["namespace"])
-    return out
-
-
-def run_options(given: dict, resume_dir: str | Path | None = None) -> dict:
-    """The options of a demo run (RUN_DEFAULTS' keys): ``given`` (those on the command line,
-    only the ones given) over the defaults; resuming the run in ``resume_dir``, the options it
-    stored when it started (RUN_FILE). ValueError if a given option differs from the stored
-    one, or if nothing is stored and no --seed is given (a run from before the options were
-    kept: its seed is unknown)."""
-    unknown = set(given) - set(RUN_DEFAULTS)
-    if unknown:
-        raise ValueError(f"not run options: {', '.join(sorted(unknown))}")
-    given = _normalized(given)
-    if resume_dir is None:
-        return {**RUN_DEFAULTS, **given}
-    path = Path(resume_dir) / RUN_FILE
-    if not path.exists():
-        if "seed" not in given:
-            raise ValueError(f"{path} is missing (a run started before its options were kept): give the run's "
-                             "--seed and other options to resume it")
-        return {**RUN_DEFAULTS, **given}
-    import json
-
-    stored = _normalized({name: value for name, value in json.loads(path.read_text()).items() if name in RUN_DEFAULTS})
-    conflicts = [f"--{name.replace('_', '-')} {value!r} (the run's: {stored[name]!r})" for name, value in given.items()
-                 if name in stored and value != stored[name]]
-    if conflicts:
-        raise ValueError(f"--resume {resume_dir} keeps the options the run started with ({path}); these differ: "
-                         f"{'; '.join(conflicts)}. Leave them out or give the run's")
-    return {**RUN_DEFAULTS, **given, **stored}
-
-
-def store_run_options(directory: Path, options: dict) -> Path:
-    """``directory/RUN_FILE`` with the run's ``options`` (RUN_DEFAULTS' keys), for ``--resume``."""
-    import json
-
-    directory.mkdir(parents=True, exist_ok=True)
-    path = directory / RUN_FILE
-    path.write_text(json.dumps({name: options[name] for name in RUN_DEFAULTS}, indent=2) + "\n")
-    return path
-
-
 def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None, machine_file: str,
                    quiet: bool = False, placement: dict | None = None, restart_planner_after: int | None = None,
                    record: bool = True, resume: bool = False, timeout_s: float = 1800.0) -> tuple[dict, object]:
@@ -650,15 +539,6 @@ def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None
     summary["simulated_pass_time_s"] = sum(r["duration_s"] for r in job.results.values())
     (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
     return summary, charges
-
-
-def job_line(seed: int, summary: dict) -> str:
-    """The line printed for a job that ran (``hexctl demo``, ``hexctl campaign``)."""
-    o = summary["outcome"]
-    return (f"job {seed}: {o['reason']} after {o['passes']} passes, X = {o['material_remaining_mm']:+.4f} mm, "
-            f"t = {o['time_remaining_s']:+.1f} s, charge {o['total_charge']:.4f} "
-            f"(expected J at the start {summary['expected_penalty_at_start']:.4f}); {_part_text(summary)}; "
-            f"{summary['simulated_pass_time_s']:.0f} s of passes in {summary['wall_s']:.0f} s wall")
 
 
 def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_ingersoll.yaml", jobs: int = 1,
