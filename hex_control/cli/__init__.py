@@ -7,7 +7,7 @@ import os
 import signal
 import sys
 
-from hex_control.cli import cell, grinding, kinematics, recording, ros_verbs, seeds, shaping
+from hex_control.cli import cell, grinding, kinematics, recording, ros_verbs, seeds, shaping, unit_commitment
 from hex_control.cli.cell import MACHINES
 
 __all__ = ["MACHINES", "main"]
@@ -22,6 +22,7 @@ def _parser() -> argparse.ArgumentParser:
     kinematics.add_parsers(commands)
     grinding.add_parsers(commands)
     shaping.add_parsers(commands)
+    unit_commitment.add_parsers(commands)
     seeds.add_parsers(commands)
     recording.add_parsers(commands)
     recording.add_bench_parser(commands)
