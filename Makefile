@@ -4,8 +4,9 @@ PYTHON ?= python3
 VENV   ?= .venv
 BUILD  ?= build
 PY     := $(VENV)/bin/python
-MSG_SOURCES := $(shell find msg_defs -type f -name '*.msg' -o -type f -name '*.srv' -o -type f -name '*.action') \
-               msg_defs/CMakeLists.txt msg_defs/package.xml
+MSG_SOURCES := $(shell find msg_defs -path msg_defs/tf2_msgs -prune -o -type f \( -name '*.msg' -o -name '*.srv' \
+                 -o -name '*.action' \) -print) msg_defs/CMakeLists.txt msg_defs/package.xml
+TF2_SOURCES := $(wildcard msg_defs/tf2_msgs/msg/*.msg) msg_defs/tf2_msgs/CMakeLists.txt msg_defs/tf2_msgs/package.xml
 
 .PHONY: setup demo test lint bench lock clean
 
@@ -17,20 +18,30 @@ $(VENV)/.stamp-deps: requirements.lock
 	$(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
 	touch $@
 
-# 2. interface package hex_control_msgs, built with CMake into the venv prefix
-$(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES)
+# 2. interface packages, built with CMake into the venv prefix: tf2_msgs (TFMessage, the type
+#    of /tf; not among the ROS wheels, so built from its standard definition) and hex_control_msgs
+define build_interfaces
 	mkdir -p $(BUILD)
-	cmake -S msg_defs -B $(BUILD)/msg_defs -DCMAKE_PREFIX_PATH=$(CURDIR)/$(VENV) \
+	cmake -S $(1) -B $(BUILD)/$(2) -DCMAKE_PREFIX_PATH=$(CURDIR)/$(VENV) \
 	  -DCMAKE_INSTALL_PREFIX=$(CURDIR)/$(VENV) -DPython3_EXECUTABLE=$(CURDIR)/$(PY) \
-	  -DBUILD_TESTING=OFF > $(BUILD)/msg_defs.log 2>&1 || (cat $(BUILD)/msg_defs.log; exit 1)
-	cmake --build $(BUILD)/msg_defs -j2 >> $(BUILD)/msg_defs.log 2>&1 || (tail -50 $(BUILD)/msg_defs.log; exit 1)
-	cmake --install $(BUILD)/msg_defs >> $(BUILD)/msg_defs.log 2>&1 || (tail -50 $(BUILD)/msg_defs.log; exit 1)
+	  -DBUILD_TESTING=OFF > $(BUILD)/$(2).log 2>&1 || (cat $(BUILD)/$(2).log; exit 1)
+	cmake --build $(BUILD)/$(2) -j2 >> $(BUILD)/$(2).log 2>&1 || (tail -50 $(BUILD)/$(2).log; exit 1)
+	cmake --install $(BUILD)/$(2) >> $(BUILD)/$(2).log 2>&1 || (tail -50 $(BUILD)/$(2).log; exit 1)
+endef
+
+$(VENV)/.stamp-tf2-msgs: $(VENV)/.stamp-deps $(TF2_SOURCES)
+	$(call build_interfaces,msg_defs/tf2_msgs,tf2_msgs)
+	$(PY) -c "import tf2_msgs.msg"
+	touch $@
+
+$(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES)
+	$(call build_interfaces,msg_defs,msg_defs)
 	$(PY) -c "import hex_control_msgs.msg, hex_control_msgs.srv, hex_control_msgs.action"
 	touch $@
 
 # 3. hex_control itself, editable. setup.cfg puts the scripts in lib/hex_control (the
 #    layout `ros2 run` expects); link the user-facing ones onto the venv's PATH too.
-$(VENV)/.stamp-package: $(VENV)/.stamp-msgs setup.py setup.cfg
+$(VENV)/.stamp-package: $(VENV)/.stamp-tf2-msgs $(VENV)/.stamp-msgs setup.py setup.cfg
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	cd $(VENV)/bin && for script in ../lib/hex_control/hexctl ../lib/hex_control/hex-*; do \
 	  ln -sf $$script .; done
