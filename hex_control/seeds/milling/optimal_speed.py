@@ -13,6 +13,11 @@ eta_bar the static deflection under the mean cutting force (eq. 4), each plane s
 |u| limited to the spindle's acceleration times Delta (eq. 10). Applied alone the speed
 climbs without end (the seed says so): once it reaches n_max it ramps down linearly to n0
 over fall_s, and the optimal command resumes (the optimal-linear programme).
+
+K* of eq. 18 is eq. 14's: the tool's Omega^2 plus the cut's proportional feedback, the
+cutting stiffness -phi phi^T (x) a_p k_d K(t) coupling the two planes (with
+``cutting_stiffness=False``, the tool's alone). At the case's depth the cut's term is about
+5 % of the tool's tip stiffness; eq. 18 uses its symmetric part, and eta_bar = K*^-1 f0.
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ class OptimalLinearSpeed:
 
     def __init__(self, modes: ToolModes, cut: Cut, nominal_rpm: float, max_rpm: float, *, fall_s: float,
                  acceleration_rpm_s: float, q1: float = 1.0, q2: float = 1.0, r: float = 1e-12,
-                 control_period_s: float = 1e-3):
+                 control_period_s: float = 1e-3, cutting_stiffness: bool = True):
         if not (0 < nominal_rpm < max_rpm and fall_s > 0 and acceleration_rpm_s > 0 and r > 0
                 and control_period_s > 0):
             raise ValueError("need 0 < nominal_rpm < max_rpm and positive fall_s, acceleration_rpm_s, r, "
@@ -59,7 +64,9 @@ class OptimalLinearSpeed:
         block[:2 * m, :2 * m], block[:2 * m, 2 * m:] = a, np.eye(2 * m)
         integral = expm(block * control_period_s)[:2 * m, 2 * m:]
         self.g = integral @ np.concatenate([np.zeros(m), modes.tip_shape])  # per unit tip force
-        self.eta_bar = np.outer(modes.tip_shape / self.omega2, mean_cutting_force(cut))  # (m, 2)
+        self.shape, self.f0 = modes.tip_shape, mean_cutting_force(cut)
+        self.eta_bar = np.outer(modes.tip_shape / self.omega2, self.f0)  # (m, 2), the tool's K alone
+        self.cutting_stiffness = cutting_stiffness
         self.speed, self.falling, self.next_control_s, self.last_time_s = nominal_rpm, False, 0.0, 0.0
         self.commands: list[tuple[float, float]] = []  # (time_s, u rev/min) of every control step
 
@@ -70,10 +77,18 @@ class OptimalLinearSpeed:
     def command_rpm(self, simulator) -> float:
         """u = dn of eq. 18 (rev/min), limited by eq. 10."""
         x, m = simulator.modal_state, self.m
-        velocity_term = self.q1 * (self.g[m:] @ x[m:])  # per plane (x, y)
-        position_term = self.q2 * (self.g[:m] @ (self.omega2[:, None] * (x[:m] - self.eta_bar)))
-        weights = velocity_term + position_term
         kbar = directional_matrix(self.cut, [simulator.tooth_angles_rad[0]])[0]
+        velocity_term = self.q1 * (self.g[m:] @ x[m:])  # per plane (x, y)
+        if self.cutting_stiffness:  # K* = Omega^2 - phi phi^T (x) a_p k_d K(t) (eq. 14)
+            cutting = self.cut.depth_m * self.cut.cutting_pressure_pa * kbar
+            k_star = (np.kron(np.eye(2), np.diag(self.omega2))
+                      - np.kron(cutting, np.outer(self.shape, self.shape)))  # [eta_x; eta_y] ordering
+            eta_bar = np.linalg.solve(k_star, np.kron(self.f0, self.shape)).reshape(2, m).T
+            error = (x[:m] - eta_bar).T.reshape(-1)
+            position_term = self.q2 * (np.kron(np.eye(2), self.g[:m]) @ (0.5 * (k_star + k_star.T) @ error))
+        else:
+            position_term = self.q2 * (self.g[:m] @ (self.omega2[:, None] * (x[:m] - self.eta_bar)))
+        weights = velocity_term + position_term
         b_u = (-self.cut.depth_m * self.cut.cutting_pressure_pa * simulator.delay_s / self.speed
                * kbar @ np.asarray(simulator.delayed_velocity_m_s))
         u = -float(b_u @ weights) / self.r

@@ -62,8 +62,12 @@ def write_study(output, case: ChatterCase | None = None, progress=None) -> dict:
         "first_mode_hz": float(case.modes.omega_rad_s[0] / (2 * math.pi)),
         "depth_m": case.cut.depth_m,
         "programmes": {r.name: {"rms_m": r.rms_m, "chatter_peak_m": r.chatter_peak_m, "chatter_hz": r.chatter_hz,
+                                "max_amplitude_m": r.max_amplitude_m, "energy_m2_s": r.energy_m2_s,
+                                "speed_range_rpm": list(r.speed_range_rpm),
                                 "rms_percent_of_reference": 100 * r.rms_m / base.rms_m,
-                                "peak_percent_of_reference": 100 * r.chatter_peak_m / base.chatter_peak_m}
+                                "peak_percent_of_reference": 100 * r.chatter_peak_m / base.chatter_peak_m,
+                                "max_amplitude_percent_of_reference": 100 * r.max_amplitude_m / base.max_amplitude_m,
+                                "energy_percent_of_reference": 100 * r.energy_m2_s / base.energy_m2_s}
                        for r in results},
         "table": programme_table(results),
         "lobes": lobe_check(case),
