@@ -114,9 +114,12 @@ class GrindingJob:
         lateness = float(self.charges.lateness(late)) if late > 0 else 0.0
         return float(self.charges.deadline(self.state.material_mm)) + lateness + self.state.in_path_charge
 
-    def decide(self) -> dict | None:
+    def decide(self, amend=None) -> dict | None:
         """The next pass to run (also returned again while it is pending), or None when the
-        job has ended by the policy's own logic."""
+        job has ended by the policy's own logic. ``amend(t, x, decision)`` (optional) returns
+        the policy's decision at (t s, X mm) with what the scan shows locally in it
+        (``measured_part.amend_decision``): a pass it adds carries its mean ``cut_depth_mm``
+        and why (``finish``)."""
         if self.finished:
             return None
         if self.state.pending is not None:
@@ -125,11 +128,13 @@ class GrindingJob:
         while True:
             t, x = self.state.time_remaining_s, self.state.material_mm
             decision = self.policy.lookup(t, x)
+            if amend is not None:
+                decision = amend(t, x, decision)
             if decision["action"] == "grind":
                 record = {"type": "decision", "pass_index": self.state.passes, "time_remaining_s": t,
                           "material_mm": x, "force_n": decision["force_n"], "feed_mm_s": decision["feed_mm_s"],
                           "duration_s": decision["duration_s"], "expected_penalty": decision["expected_penalty"],
-                          "cut_depth_mm": None}
+                          "cut_depth_mm": decision.get("cut_depth_mm"), "finish": decision.get("finish", "")}
                 self._record(record)
                 return record
             fastest_feed = max(self.policy.metadata["feeds_mm_s"])

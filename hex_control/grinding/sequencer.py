@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from hex_control.config import config_file
 from hex_control.grinding.coefficients import PassModelUpdate
 from hex_control.grinding.config import parse_planner_config
 from hex_control.grinding.job import (
@@ -66,7 +67,16 @@ from hex_control.grinding.job import (
     read_model,
     unfinished_logs,
 )
-from hex_control.grinding.sdp import solve
+from hex_control.grinding.measured_part import (
+    PartRule,
+    Profile,
+    amend_decision,
+    pass_durations_s,
+    prior_force_limit_n,
+)
+from hex_control.grinding.model import GrindingProcess
+from hex_control.grinding.outlook import outlook
+from hex_control.grinding.sdp import build_controls, solve
 
 # PassResult.status, as on the wire
 COMPLETED_PASS, ABORTED_PASS, REJECTED_PASS, FAULTED_PASS = 0, 1, 2, 3
@@ -153,6 +163,9 @@ class Outputs:
     to solve off the executor thread."""
 
     commands: list = field(default_factory=list)  # (values dict, a resend or stop: bool)
+    #: GrindBead.Feedback values of each new command (its values under "command"); the first
+    #: says whether the deadline can be reached and the expected end state (issue 42 item 3)
+    feedback: list = field(default_factory=list)
     finished: tuple | None = None  # (goal token or None, result dict, a job's end: also on ~/job_result)
     solve: SolveRequest | None = None
 
@@ -228,8 +241,16 @@ class Sequencer:
     def __init__(self, settings: SequencerSettings, planner_config: dict, health=None,
                  log: Callable[[str, str], None] | None = None,
                  predictor_heard: Callable[[], bool] = lambda: False):
+        # the part as measured in the decisions (issue 42): its own section, the rest is the SDP's
+        part = planner_config.get("measured_part")
+        if part is None:
+            part = (yaml.safe_load(config_file("measured_part.yaml").read_text()) or {}).get("measured_part")
+        self.rule = PartRule(**(part or {}))
+        planner_config = {k: v for k, v in planner_config.items() if k != "measured_part"}
         self.settings, self.base_config = settings, planner_config
         _, self.charges, self.grid, self.cut_model = parse_planner_config(planner_config)
+        self._profile: tuple | None = None  # (job id, passes, Profile) of the plant's latest scan
+        self._machine_force_n = math.nan  # the configured F_max of the job being started (N)
         self.health = health if health is not None else MemoryHealth()
         self.log = log or (lambda level, text: None)
         self.predictor_heard = predictor_heard
@@ -366,8 +387,22 @@ class Sequencer:
             return out
         self.token = token
         self._advance_after_solve = True
-        self._request_solve(out, "start", goal, process, token)
+        self._machine_force_n = process.force_max_n
+        self._request_solve(out, "start", goal, self._with_prior_force(goal, process), token)
         return out
+
+    def _with_prior_force(self, goal: JobGoal, process):
+        """The process with F_max lowered to the force the pass planner's guard lets its plans
+        reach on the scanned bead (``measured_part.prior_force_limit_n``; no scan: unchanged)."""
+        profile = self._profile[2] if self._profile is not None and self._profile[1] == 0 else None
+        if profile is None:
+            return process
+        sized = dataclasses.replace(process, bead_width_mm=goal.bead_width_mm, bead_length_mm=goal.bead_length_mm)
+        feeds = build_controls(sized, self.grid.covering(goal.deadline_s, goal.material_mm), self.cut_model).feeds_mm_s
+        prior = prior_force_limit_n(profile, sized, feeds, self.rule)
+        self.log("info", f"the plans can reach about {prior:.1f} N on the scanned bead "
+                         f"(F_max {process.force_max_n:g} N)")
+        return dataclasses.replace(process, force_max_n=prior)
 
     def _rejected_result(self, reason: str) -> dict:
         return {"reason": REJECTED, "message": reason, "passes": 0, "material_remaining_mm": 0.0,
@@ -375,7 +410,13 @@ class Sequencer:
 
     def _start(self, goal: JobGoal, process, policy) -> None:
         self.job = GrindingJob(goal, policy, self.charges, self.settings.job_dir / f"{goal.job_id}.jsonl")
-        self.model_update = PassModelUpdate(process, self.settings.resolve_threshold)
+        machine = process.force_max_n if math.isnan(self._machine_force_n) else self._machine_force_n
+        self.model_update = PassModelUpdate(dataclasses.replace(process, force_max_n=machine),
+                                            self.settings.resolve_threshold)
+        self.model_update.observe_force_limit(process.force_max_n)  # the prior the policy was solved with
+        self.model_update.mark_solved()
+        if process.force_max_n != machine:
+            self._model_changed(Outputs())
         self._not_before_ns = self._result_stamp_ns = 0
         self._refusals.clear()
         self.log("info", f"job {goal.job_id}: X0 = {goal.material_mm:.3f} mm, deadline {goal.deadline_s:g} s, "
@@ -424,15 +465,17 @@ class Sequencer:
         if self.solving is not None:  # decide on the policy being solved
             self._advance_after_solve = True
             return
-        decision = self.job.decide()
+        decision = self.job.decide(amend=self._amend)
         if decision is None:
             self._finish(out)
             return
         process = self.model_update.process  # one K1 for the cut depth here and the force downstream
+        cut = decision.get("cut_depth_mm")  # a finishing pass's (measured_part); else eq. 4.6's
         command = {"stamp_ns": self._result_stamp_ns,  # the plant time of the state decided on
                    "job_id": self.job.goal.job_id, "pass_index": decision["pass_index"],
                    "normal_force_n": decision["force_n"], "feed_speed_mm_s": decision["feed_mm_s"],
-                   "cut_depth_mm": float(process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"])),
+                   "cut_depth_mm": float(process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"])
+                                         if cut is None else cut),
                    "specific_energy_j_mm3": float(process.specific_energy_j_mm3),
                    "pass_duration_s": decision["duration_s"], "material_remaining_mm": decision["material_mm"],
                    "time_remaining_s": decision["time_remaining_s"], "expected_penalty": decision["expected_penalty"]}
@@ -442,6 +485,42 @@ class Sequencer:
         self._held = None
         self.health.clear("overdue")
         out.commands.append((command, False))
+        out.feedback.append(self._feedback(command, decision))
+
+    def _profile_now(self) -> Profile | None:
+        """The plant's scan of the job's part as it now is (after the passes applied), if here."""
+        if self._profile is None:
+            return None
+        job_id, passes, profile = self._profile
+        return profile if job_id in ("", self.job.goal.job_id) and passes == self.job.state.passes else None
+
+    def _amend(self, time_remaining_s: float, material_mm: float, decision: dict) -> dict:
+        """The policy's decision with the scan's local state in it (``measured_part.amend_decision``)."""
+        policy = self.job.policy
+        planned = GrindingProcess.from_dict(policy.metadata["process"])
+        feeds, step_s = policy.metadata["feeds_mm_s"], float(policy.time_s[1] - policy.time_s[0])
+        amended = amend_decision(decision, profile=self._profile_now(), process=self.model_update.process,
+                                 rule=self.rule, time_remaining_s=time_remaining_s,
+                                 stage_time_s=decision["stage_time_s"], feeds_mm_s=feeds,
+                                 durations_s=pass_durations_s(planned, feeds, step_s))
+        if amended is not decision:
+            self.health.count("finishing_passes")
+            self.log("info", f"pass {self.job.state.passes}: {amended['finish']}")
+        return amended
+
+    def _feedback(self, command: dict, decision: dict) -> dict:
+        """GrindBead.Feedback values of a new command: where the job stands and can still get to."""
+        state = self.job.state
+        seen = outlook(self.job.policy, self.model_update.solved_process, self.charges, self.cut_model,
+                       time_remaining_s=state.time_remaining_s, material_mm=state.material_mm,
+                       rollouts=self.rule.outlook_rollouts)
+        if not seen.reachable:
+            self.health.fault("deadline", seen.note, "warn", hold_s=30.0)
+        note = "; ".join(filter(None, (decision.get("finish", ""), seen.note)))
+        return {"pass_index": command["pass_index"], "material_remaining_mm": state.material_mm,
+                "time_remaining_s": state.time_remaining_s, "expected_penalty": command["expected_penalty"],
+                "deadline_reachable": seen.reachable, "expected_final_material_mm": seen.expected_final_mm,
+                "note": note, "command": command}
 
     def _finish(self, out: Outputs, stop: bool = True) -> None:
         """End: the result, and a stop of the pass in flight, if one is (issue 37: a cancelled
@@ -569,6 +648,7 @@ class Sequencer:
             return out
         scan = Scan(job_id, int(passes), length, height, float(width_mm), int(stamp_ns))
         self._scans.append(scan)
+        self._profile = (job_id, int(passes), Profile(x_mm, z_mm, parent_mm))
         self.health.set("scanned_bead", f"{length:g} mm long, {height:.3f} mm mean height after {passes} passes")
         pending = self.job.state.pending if self.job is not None and not self.job.finished else None
         if (pending is not None and scan.job_id in ("", self.job.goal.job_id) and scan.passes == pending["pass_index"]

@@ -1,10 +1,8 @@
-"""Node ``sequence_planner``: the top tier -- the GrindBead action, one pass at a time.
-
-The job logic is :class:`hex_control.grinding.sequencer.Sequencer` (what it does and checks);
-this node reads its settings, converts messages, solves policies off the executor thread and
-serves ``~/grind_bead``. A goal is checked at goal response: a refused one gets REJECT, the
-reason in the log and /diagnostics. A resumed job (its client gone) reports on
-``~/job_feedback`` and ``~/job_result``.
+"""Node ``sequence_planner``: the top tier -- the GrindBead action, one pass at a time. The job
+logic is :class:`hex_control.grinding.sequencer.Sequencer` (what it does and checks); this node
+reads its settings, converts messages, solves policies off the executor thread and serves
+``~/grind_bead``. A goal is checked at goal response: a refused one gets REJECT, the reason in
+the log and /diagnostics. A resumed job (its client gone) reports on ``~/job_feedback``, ``~/job_result``.
 Out: grinding/pass_command (latched). In, each from its one node: grinding/pass_result (plant;
 REJECTED: pass_planner), grinding/contour (plant's scans), grinding/force_trajectory and
 pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3).
@@ -113,17 +111,14 @@ class SequencePlannerNode(Node):
 
     def _do(self, out) -> None:
         """Send what the core decided."""
-        for values, resend in out.commands:
-            command = PassCommand(**{k: v for k, v in values.items() if k != "stamp_ns"})
-            command.header.stamp.sec, command.header.stamp.nanosec = divmod(values["stamp_ns"], 10**9)
-            self.command_pub.publish(command)
-            if not resend:
-                feedback = GrindBead.Feedback(command=command, **{k: values[k] for k in (
-                    "pass_index", "material_remaining_mm", "time_remaining_s", "expected_penalty")})
-                self.feedback_pub.publish(feedback)
-                handle = self.core.token
-                if handle is not None and handle.is_active:
-                    handle.publish_feedback(feedback)
+        for values, _ in out.commands:
+            self.command_pub.publish(_command(values))
+        for values in out.feedback:  # each new command's; the first says if the deadline can be met
+            feedback = GrindBead.Feedback(command=_command(values["command"]),
+                                          **{k: v for k, v in values.items() if k != "command"})
+            self.feedback_pub.publish(feedback)
+            if (handle := self.core.token) is not None and handle.is_active:
+                handle.publish_feedback(feedback)
         if out.solve is not None:
             self.solving = in_background(self.core.solve, out.solve)
         if out.finished is not None:
@@ -169,6 +164,12 @@ class SequencePlannerNode(Node):
 class _Health(Diagnostics):  # /diagnostics, taking the core's fault levels ("warn", "error")
     def fault(self, name: str, message: str, level="warn", hold_s: float | None = None) -> None:
         super().fault(name, message, {"warn": WARN, "error": ERROR}.get(level, level), hold_s)
+
+
+def _command(values: dict) -> PassCommand:
+    command = PassCommand(**{k: v for k, v in values.items() if k != "stamp_ns"})
+    command.header.stamp.sec, command.header.stamp.nanosec = divmod(values["stamp_ns"], 10**9)
+    return command
 
 
 def _ns(stamp) -> int:
