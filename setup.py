@@ -16,6 +16,7 @@ NODES = {
     "force_controller": "hex_control.ros.nodes.force_controller:main",
     "plant": "hex_control.ros.nodes.plant:main",
     "pass_planner": "hex_control.ros.nodes.pass_planner:main",
+    "robot_state": "hex_control.ros.nodes.robot_state:main",
 }
 
 setup(

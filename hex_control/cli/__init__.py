@@ -7,7 +7,7 @@ import os
 import signal
 import sys
 
-from hex_control.cli import cell, grinding, kinematics, recording, ros_verbs, seeds, shaping, unit_commitment
+from hex_control.cli import cell, grinding, kinematics, recording, ros_verbs, seeds, shaping, unit_commitment, view
 from hex_control.cli.cell import MACHINES
 
 __all__ = ["MACHINES", "main"]
@@ -27,6 +27,7 @@ def _parser() -> argparse.ArgumentParser:
     recording.add_parsers(commands)
     recording.add_bench_parser(commands)
     ros_verbs.add_parsers(commands)
+    view.add_parsers(commands)
     return parser
 
 

@@ -60,8 +60,9 @@ def graph_nodes(job_dir: Path, seed: int = 0, *, mode: str = "lockstep", plant_o
     """The grinding hierarchy with the shipped configuration: plant (``mode``, process
     variation seeded by ``seed``), kinematics, input shaper, force controller (answering
     every measurement), pass planner, sequence planner (job log in ``job_dir``), the
-    pass-rate load predictor and, when the force controller feeds its prediction forward
-    (``feed_forward_mm_per_n`` > 0), the control-rate one.
+    pass-rate load predictor, the robot state publisher (robot description, joint states, TF)
+    and, when the force controller feeds its prediction forward (``feed_forward_mm_per_n`` > 0),
+    the control-rate load predictor.
 
     Every name in the graph is relative, so a ``namespace`` (e.g. ``/cell2``) holds one
     whole cell, its sim clock included (``/cell2/clock``: /clock remapped to the
@@ -81,6 +82,8 @@ def graph_nodes(job_dir: Path, seed: int = 0, *, mode: str = "lockstep", plant_o
                                                            "trigger:=measurement")),
         NodeSpec("pass_planner", "pass_planner", (*SIM_TIME, *machine)),
         NodeSpec("sequence_planner", "sequence_planner", ("-p", f"job_dir:={job_dir}")),
+        # the URDF, /joint_states and /tf from the plant's telemetry (only observes)
+        NodeSpec("robot_state", "robot_state", tuple(machine)),
     ]
     # the first __ns remapping on a command line wins: the predictors, under the cell's
     # <namespace>/load_predictor, get theirs alone; the sim clock is the cell's, named

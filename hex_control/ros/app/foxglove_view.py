@@ -1,0 +1,270 @@
+"""``hexctl view``: the running cell served over the Foxglove WebSocket protocol with the
+official ``foxglove-sdk`` (issue 40 item 2), for Foxglove (app.foxglove.dev or the desktop
+app: Open connection -> Foxglove WebSocket -> ws://localhost:8765) when RViz is not there.
+
+A ROS node in the cell's namespace listens to the cell and logs to Foxglove channels, each
+stamped with the cell's sim time (the timeline is the header stamps', not receive time):
+
+  /tf, /tf_static           foxglove.FrameTransforms from the robot_state node's TF tree
+  /robot_description        the URDF (schema std_msgs/msg/String, JSON): the 3-D panel's URDF layer
+  /scene/machine            foxglove.SceneUpdate: the URDF's visuals as primitives in their link frames
+  /scene/bead               foxglove.SceneUpdate in frame ``bead``: the bead's contour, the parent
+                            surface under it and the bead as first scanned (lines, m)
+  /plant/wrench             JSON shaped like geometry_msgs/WrenchStamped: the measured normal force
+  /plant/true_wrench        the same for the true force (both from the plant's telemetry samples)
+  /grinding/contour         JSON shaped like hex_control_msgs/Contour (plot z_mm against x_mm)
+  /pass_table               JSON {rows: [...]}: per pass the decision (X, K1, cut, F_N, V_f, J) and
+                            the measured result (Table panel)
+
+The names and shapes match the demo's recording (MCAP, ROS 2 messages), so that
+``config/foxglove/hex_control.json`` (the shipped layout) shows both. Static content (the
+static frames, the URDF and its scene, the bead, the pass table) is logged again every
+second: a client that connects late has it at once.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+import foxglove
+import rclpy
+from foxglove import Channel, Schema
+from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
+from foxglove.messages import (
+    Color,
+    CubePrimitive,
+    CylinderPrimitive,
+    FrameTransform,
+    FrameTransforms,
+    LinePrimitive,
+    Point3,
+    Pose,
+    Quaternion,
+    SceneEntity,
+    SceneUpdate,
+    SpherePrimitive,
+    Timestamp,
+    Vector3,
+)
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage
+
+from hex_control.kinematics.robot_model import MM, urdf_visuals
+from hex_control.ros.infra.interfaces import LATCHED, RESULTS, TELEMETRY
+from hex_control.ros.nodes.robot_state import TF_STATIC
+from hex_control_msgs.msg import Contour, PassCommand, PassResult, PlantTelemetry
+
+STRING_SCHEMA = Schema(name="std_msgs/msg/String", encoding="jsonschema", data=json.dumps(
+    {"type": "object", "properties": {"data": {"type": "string"}}}).encode())
+WRENCH_SCHEMA = {"type": "object", "title": "geometry_msgs/msg/WrenchStamped", "properties": {
+    "header": {"type": "object"}, "wrench": {"type": "object"}}}
+CONTOUR_SCHEMA = {"type": "object", "title": "hex_control_msgs/msg/Contour", "properties": {
+    "pass_index": {"type": "integer"}, "x_mm": {"type": "array"}, "z_mm": {"type": "array"},
+    "parent_mm": {"type": "array"}}}
+TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties": {"rows": {"type": "array"}}}
+STATUS = {PassResult.COMPLETED: "completed", PassResult.ABORTED: "aborted", PassResult.REJECTED: "rejected",
+          PassResult.FAULTED: "faulted"}
+
+
+def _ns(seconds: float) -> int:
+    return max(0, round(seconds * 1e9))
+
+
+def _stamp(stamp) -> Timestamp:
+    return Timestamp(sec=int(stamp.sec), nsec=int(stamp.nanosec))
+
+
+def _finite(value: float):
+    """JSON has no NaN: None instead."""
+    return float(value) if math.isfinite(value) else None
+
+
+def frame_transforms(msg: TFMessage) -> FrameTransforms:
+    return FrameTransforms(transforms=[FrameTransform(
+        timestamp=_stamp(t.header.stamp), parent_frame_id=t.header.frame_id, child_frame_id=t.child_frame_id,
+        translation=Vector3(x=t.transform.translation.x, y=t.transform.translation.y, z=t.transform.translation.z),
+        rotation=Quaternion(x=t.transform.rotation.x, y=t.transform.rotation.y, z=t.transform.rotation.z,
+                            w=t.transform.rotation.w)) for t in msg.transforms])
+
+
+def machine_scene(urdf: str) -> SceneUpdate:
+    """The URDF's visuals as scene entities, one per link, locked to the link's frame."""
+    by_link = {}
+    for v in urdf_visuals(urdf):
+        pose = Pose(position=Vector3(x=v.translation_m[0], y=v.translation_m[1], z=v.translation_m[2]),
+                    orientation=Quaternion(x=v.rotation_xyzw[0], y=v.rotation_xyzw[1], z=v.rotation_xyzw[2],
+                                           w=v.rotation_xyzw[3]))
+        size, color = Vector3(x=v.size_m[0], y=v.size_m[1], z=v.size_m[2]), Color(r=v.rgba[0], g=v.rgba[1],
+                                                                                  b=v.rgba[2], a=v.rgba[3])
+        shapes = by_link.setdefault(v.link, {"cubes": [], "cylinders": [], "spheres": []})
+        if v.shape == "box":
+            shapes["cubes"].append(CubePrimitive(pose=pose, size=size, color=color))
+        elif v.shape == "cylinder":
+            shapes["cylinders"].append(CylinderPrimitive(pose=pose, size=size, bottom_scale=1.0, top_scale=1.0,
+                                                         color=color))
+        else:
+            shapes["spheres"].append(SpherePrimitive(pose=pose, size=size, color=color))
+    return SceneUpdate(entities=[SceneEntity(frame_id=link, id=f"machine/{link}", frame_locked=True, **shapes)
+                                 for link, shapes in by_link.items()])
+
+
+def bead_scene(contour: Contour, first: Contour | None, stamp: Timestamp) -> SceneUpdate:
+    """The contour (orange), the parent surface (grey) and the bead as first scanned (faint),
+    in the bead frame (x along, z up; m)."""
+    def line(x_mm, z_mm, rgba, thickness):
+        return LinePrimitive(thickness=thickness, scale_invariant=True, color=Color(r=rgba[0], g=rgba[1], b=rgba[2],
+                                                                                    a=rgba[3]),
+                             points=[Point3(x=x * MM, y=0.0, z=z * MM) for x, z in zip(x_mm, z_mm)])
+    parent = list(contour.parent_mm) or [0.0] * len(contour.x_mm)
+    # heights are above the parent surface's datum: the contour drawn on top of the parent
+    lines = [line(contour.x_mm, [z + p for z, p in zip(contour.z_mm, parent)], (1.0, 0.55, 0.1, 1.0), 3.0),
+             line(contour.x_mm, parent, (0.6, 0.6, 0.6, 1.0), 2.0)]
+    if first is not None:
+        first_parent = list(first.parent_mm) or [0.0] * len(first.x_mm)
+        lines.append(line(first.x_mm, [z + p for z, p in zip(first.z_mm, first_parent)], (1.0, 1.0, 1.0, 0.35), 1.0))
+    return SceneUpdate(entities=[SceneEntity(timestamp=stamp, frame_id="bead", id="bead", frame_locked=True,
+                                             lines=lines)])
+
+
+class FoxgloveView(Node):
+    """Subscribes to the cell (its names relative to the node's namespace) and logs to the
+    Foxglove channels of ``context``; :meth:`republish` logs the static content again."""
+
+    def __init__(self, foxglove_context: foxglove.Context, namespace: str = "", **kwargs):
+        super().__init__("foxglove_view", namespace=namespace or "/", **kwargs)
+        self.tf = FrameTransformsChannel("/tf", context=foxglove_context)
+        self.tf_static = FrameTransformsChannel("/tf_static", context=foxglove_context)
+        self.description = Channel("/robot_description", schema=STRING_SCHEMA, message_encoding="json",
+                                   context=foxglove_context)
+        self.machine = SceneUpdateChannel("/scene/machine", context=foxglove_context)
+        self.bead = SceneUpdateChannel("/scene/bead", context=foxglove_context)
+        self.wrench = Channel("/plant/wrench", schema=WRENCH_SCHEMA, context=foxglove_context)
+        self.true_wrench = Channel("/plant/true_wrench", schema=WRENCH_SCHEMA, context=foxglove_context)
+        self.contour = Channel("/grinding/contour", schema=CONTOUR_SCHEMA, context=foxglove_context)
+        self.table = Channel("/pass_table", schema=TABLE_SCHEMA, context=foxglove_context)
+        self.static_msg = self.urdf = self.first_contour = self.last_contour = None
+        self.time_ns = 0  # the cell's sim time, as far as heard
+        self.rows: dict[tuple[str, int], dict] = {}
+        self.create_subscription(TFMessage, "tf", self._on_tf, 100)
+        self.create_subscription(TFMessage, "tf_static", self._on_tf_static, TF_STATIC)
+        self.create_subscription(String, "robot_description", self._on_description, LATCHED)
+        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
+        self.create_subscription(Contour, "grinding/contour", self._on_contour, LATCHED)
+        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, LATCHED)
+        self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
+
+    def _on_tf(self, msg: TFMessage) -> None:
+        if msg.transforms:
+            stamp = msg.transforms[0].header.stamp
+            self.time_ns = max(self.time_ns, stamp.sec * 1_000_000_000 + stamp.nanosec)
+        self.tf.log(frame_transforms(msg), log_time=self.time_ns)
+
+    def _on_tf_static(self, msg: TFMessage) -> None:
+        self.static_msg = msg
+        self.tf_static.log(frame_transforms(msg), log_time=self.time_ns)
+
+    def _on_description(self, msg: String) -> None:
+        self.urdf = msg.data
+        self._log_description()
+
+    def _log_description(self) -> None:
+        self.description.log({"data": self.urdf}, log_time=self.time_ns)
+        try:
+            self.machine.log(machine_scene(self.urdf), log_time=self.time_ns)
+        except ValueError as error:
+            self.get_logger().warning(f"robot_description: {error}", throttle_duration_sec=10.0)
+
+    def _on_telemetry(self, msg: PlantTelemetry) -> None:
+        for k, time_s in enumerate(msg.time_s):
+            ns = _ns(time_s)
+            header = {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": "tool"}
+            for channel, forces in ((self.wrench, msg.measured_force_n), (self.true_wrench, msg.true_force_n)):
+                if k < len(forces):
+                    channel.log({"header": header, "wrench": {"force": {"x": 0.0, "y": 0.0, "z": _finite(forces[k])},
+                                                              "torque": {"x": 0.0, "y": 0.0, "z": 0.0}}},
+                                log_time=ns)
+            self.time_ns = max(self.time_ns, ns)
+
+    def _on_contour(self, msg: Contour) -> None:
+        if self.first_contour is None or msg.pass_index == 0:
+            self.first_contour = msg
+        self.last_contour = msg
+        self._log_contour()
+
+    def _log_contour(self) -> None:
+        msg = self.last_contour
+        stamp = Timestamp(sec=self.time_ns // 1_000_000_000, nsec=self.time_ns % 1_000_000_000)
+        self.bead.log(bead_scene(msg, self.first_contour, stamp), log_time=self.time_ns)
+        self.contour.log({"job_id": msg.job_id, "pass_index": msg.pass_index, "x_mm": list(msg.x_mm),
+                          "z_mm": list(msg.z_mm), "parent_mm": list(msg.parent_mm)}, log_time=self.time_ns)
+
+    def _row(self, job_id: str, pass_index: int) -> dict:
+        return self.rows.setdefault((job_id, pass_index), {"job": job_id, "pass": pass_index})
+
+    def _on_command(self, msg: PassCommand) -> None:
+        if msg.stop:
+            return
+        self._row(msg.job_id, msg.pass_index).update({
+            "X_mm": _finite(msg.material_remaining_mm), "t_left_s": _finite(msg.time_remaining_s),
+            "K1_J_mm3": _finite(msg.specific_energy_j_mm3), "cut_planned_mm": _finite(msg.cut_depth_mm),
+            "F_N": _finite(msg.normal_force_n), "V_f_mm_s": _finite(msg.feed_speed_mm_s),
+            "J": _finite(msg.expected_penalty)})
+        self._log_table()
+
+    def _on_result(self, msg: PassResult) -> None:
+        self._row(msg.job_id, msg.pass_index).update({
+            "status": STATUS.get(msg.status, str(msg.status)), "cut_measured_mm": _finite(msg.measured_cut_depth_mm),
+            "duration_s": _finite(msg.duration_s), "mean_force_n": _finite(msg.mean_normal_force_n),
+            "K1_measured_J_mm3": _finite(msg.specific_energy_j_mm3), "burn": bool(msg.burn_detected),
+            "stall": bool(msg.stall_detected)})
+        self._log_table()
+
+    def _log_table(self) -> None:
+        self.table.log({"rows": [self.rows[key] for key in sorted(self.rows)]}, log_time=self.time_ns)
+
+    def republish(self) -> None:
+        """The static content again, for clients that connected since."""
+        if self.static_msg is not None:
+            self.tf_static.log(frame_transforms(self.static_msg), log_time=self.time_ns)
+        if self.urdf is not None:
+            self._log_description()
+        if self.last_contour is not None:
+            self._log_contour()
+        if self.rows:
+            self._log_table()
+
+
+def serve(host: str = "127.0.0.1", port: int = 8765, namespace: str = "", *, ready=None,
+          duration_s: float = 0.0) -> int:
+    """Serve the cell in this process's ROS domain until Ctrl-C (or for ``duration_s`` > 0 of
+    wall time); ``ready(port)`` is called once the server listens (port 0: a free one)."""
+    context = foxglove.Context()
+    server = foxglove.start_server(name="hex_control", host=host, port=port, context=context)
+    rclpy_context = rclpy.Context()
+    rclpy.init(context=rclpy_context)
+    executor = SingleThreadedExecutor(context=rclpy_context)
+    view = FoxgloveView(context, namespace, context=rclpy_context)
+    executor.add_node(view)
+    print(f"hexctl view: serving {namespace or 'the cell'} on ws://{host}:{server.port} (Foxglove: Open connection "
+          f"-> Foxglove WebSocket); Ctrl-C ends it", flush=True)
+    if ready is not None:
+        ready(server.port)
+    end = time.monotonic() + duration_s if duration_s > 0 else math.inf
+    next_republish = 0.0
+    try:
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.1)
+            if time.monotonic() >= next_republish:
+                view.republish()
+                next_republish = time.monotonic() + 1.0
+    finally:
+        executor.remove_node(view)
+        view.destroy_node()
+        executor.shutdown()
+        rclpy_context.try_shutdown()
+        server.stop()
+    return 0

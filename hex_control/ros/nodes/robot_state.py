@@ -1,0 +1,97 @@
+"""Node ``robot_state``: the machine's robot description and frames, as robot_state_publisher
+gives them in a ROS 2 install (issue 40 item 1), from the plant's telemetry. The model is
+:mod:`hex_control.kinematics.robot_model` (ROS-free, generated from the machine file, so it
+always matches the kinematics); this node converts.
+
+Out: ``robot_description`` (std_msgs/String, URDF, latched), ``tf_static`` (latched: base ->
+machine -> bead, platform -> spindle, disk -> tool), and per telemetry batch of the plant (the
+last sample, or with ``every_sample`` each) ``joint_states`` (every URDF joint that moves: m,
+rad) and ``tf`` (base -> platform, spindle -> disk, the struts' links), stamped with the
+plant's sim time of that sample. Names are relative: under a cell's namespace they are the
+cell's. In: ``plant/telemetry``. Frames and units: the model module's docstring (REP 103).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from geometry_msgs.msg import TransformStamped
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import String
+from tf2_msgs.msg import TFMessage
+
+from hex_control.config import DEFAULT_MACHINE_FILE, config_file
+from hex_control.grinding.config import load_pass_planner_config
+from hex_control.kinematics import load_machine
+from hex_control.kinematics.robot_model import FrameTransform, robot_model
+from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY, time_msg
+from hex_control.ros.infra.parameters import ParameterSpec as Spec
+from hex_control.ros.infra.parameters import declare_parameters
+from hex_control.ros.infra.runtime import run_node
+from hex_control_msgs.msg import PlantTelemetry
+
+PARAMETERS = {
+    "machine_file": Spec(str(config_file(DEFAULT_MACHINE_FILE)), "machine YAML (config/machines/); the plant's"),
+    "pass_planner_config": Spec("pass_planner.yaml", "bead frame and disk of the workpiece (the plant's)"),
+    "every_sample": Spec(False, "frames for every control period of a telemetry batch, not only its last"),
+}
+#: tf2's own profile for /tf_static: every late joiner gets the whole static tree
+TF_STATIC = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def transform_message(transform: FrameTransform, stamp) -> TransformStamped:
+    msg = TransformStamped()
+    msg.header.stamp, msg.header.frame_id, msg.child_frame_id = stamp, transform.parent, transform.child
+    t, q = msg.transform.translation, msg.transform.rotation
+    t.x, t.y, t.z = transform.translation_m
+    q.x, q.y, q.z, q.w = transform.rotation_xyzw
+    return msg
+
+
+class RobotStateNode(Node):
+    READY_PARAMETERS = ("machine_file",)
+
+    def __init__(self, **kwargs):
+        super().__init__("robot_state", **kwargs)
+        declare_parameters(self, PARAMETERS)
+        p = lambda name: self.get_parameter(name).value  # noqa: E731
+        machine, document = load_machine(p("machine_file"))
+        config = load_pass_planner_config(p("pass_planner_config"), document)
+        self.model = robot_model(machine, config.frame, disk_radius_mm=config.model.process.disk_radius_mm)
+        self.every_sample = p("every_sample")
+        self.description = self.create_publisher(String, "robot_description", LATCHED)
+        self.static = self.create_publisher(TFMessage, "tf_static", TF_STATIC)
+        self.tf = self.create_publisher(TFMessage, "tf", 100)
+        self.joints = self.create_publisher(JointState, "joint_states", 10)
+        self.description.publish(String(data=self.model.urdf()))
+        self.static.publish(TFMessage(transforms=[transform_message(t, time_msg(0.0))
+                                                  for t in self.model.static_transforms()]))
+        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
+
+    def _on_telemetry(self, msg: PlantTelemetry) -> None:
+        samples, joints = len(msg.time_s), len(msg.strut_names)
+        if not samples or not joints or len(msg.strut_lengths_m) != samples * joints \
+                or len(msg.deflection_mm) != samples:
+            return  # before the first strut command the plant has no joint positions
+        lengths_m = np.asarray(msg.strut_lengths_m, float).reshape(samples, joints)
+        for k in range(samples) if self.every_sample else (samples - 1,):
+            try:  # the plant's arrays are in the machine's joint order; its positions in m
+                state = self.model.state(lengths_m[k] * 1000.0, msg.deflection_mm[k])
+            except ValueError as error:
+                self.get_logger().warning(f"no frames for t = {msg.time_s[k]:.3f} s: {error}",
+                                          throttle_duration_sec=5.0)
+                continue
+            stamp = time_msg(msg.time_s[k])
+            joint_state = JointState(name=state.joint_names, position=state.joint_positions)
+            joint_state.header.stamp = stamp
+            self.joints.publish(joint_state)
+            self.tf.publish(TFMessage(transforms=[transform_message(t, stamp) for t in state.transforms]))
+
+
+def main(args=None) -> int:
+    return run_node(RobotStateNode, args)
+
+
+if __name__ == "__main__":
+    main()
