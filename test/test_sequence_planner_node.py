@@ -150,6 +150,9 @@ def test_a_job_runs_to_completion_over_the_action(ros, planner):
     assert [index for _, index in executor.answered] == list(range(result.passes))
     assert len(feedback) == result.passes and math.isfinite(result.total_charge)
     assert abs(result.material_remaining_mm) < 0.3
+    first = feedback[0].feedback  # issue 42: the first says whether the deadline can be met, and the end expected
+    assert first.command.pass_index == 0 and first.deadline_reachable and "expected end X" in first.note
+    assert abs(first.expected_final_material_mm) < 0.1
 
 
 def test_a_lost_pass_command_is_sent_again_until_the_pass_planner_has_it(ros, planner):
