@@ -180,6 +180,15 @@ def test_the_start_expectation_of_a_guarded_bead_predicts_the_charge_it_realizes
     assert 1 / 1.5 <= new_realized / new_j <= 1.5
 
 
+def test_a_scan_of_many_points_is_estimated_on_a_coarse_copy_of_it():
+    fine = weld_bead(150.0, 1.2, 12.0, spacing_mm=0.0015, ripple_mm=0.05, seed=0)  # 10^5 points
+    profile = Profile(fine.x_mm, fine.z_mm, fine.parent_mm)
+    coarse = profile.coarse()
+    assert coarse.x_mm.size == 2001 and coarse.mean_mm == pytest.approx(profile.mean_mm, rel=1e-4)
+    assert prior_force_limit_n(profile, JOB, [10.0, 40.0], RULE) == pytest.approx(
+        prior_force_limit_n(coarse, JOB, [10.0, 40.0], RULE))
+
+
 def test_the_static_guard_leaves_a_flat_bead_whole_and_cuts_a_rippled_one():
     flat = Profile(np.linspace(0, 150, 301), np.full(301, 1.2))
     assert static_guard_fraction(flat, JOB, 10.0) == pytest.approx(1.0, abs=1e-6)

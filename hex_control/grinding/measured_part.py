@@ -94,6 +94,14 @@ class Profile:
         length = float(np.sum(segment * (outside[1:] | outside[:-1])))  # segments with an end outside
         return LocalState(float(h[i]), float(x[i]), float(np.min(h)), length)
 
+    def coarse(self, points: int = 2001) -> Profile:
+        """The profile on at most ``points`` even positions (a scan may have 10^5): for the
+        guard's estimate, whose bisections would otherwise take seconds."""
+        if self.x_mm.size <= points:
+            return self
+        x = np.linspace(self.x_mm[0], self.x_mm[-1], points)
+        return Profile(x, np.interp(x, self.x_mm, self.contour.z_mm), np.interp(x, self.x_mm, self.contour.parent_mm))
+
     def level_depth_mm(self, level_mm: float) -> float:
         """The mean cut (mm) of a level top at ``level_mm`` over the parent (eq. 6.1-6.2)."""
         return positive_area(self.x_mm, self.height_mm - level_mm) / self.contour.length_mm
@@ -134,7 +142,8 @@ def prior_force_limit_n(profile: Profile, process: GrindingProcess, feeds_mm_s, 
     """The force (N) whose static cut the pass planner can plan on this bead, before any plan
     of it is heard: numerator(F) = fraction x numerator(F_max), the fraction the static guard's
     mean over ``feeds_mm_s`` times the rule's dynamic factor."""
-    fraction = rule.dynamic_guard_factor * float(np.mean([static_guard_fraction(profile, process, v)
+    coarse = profile.coarse()
+    fraction = rule.dynamic_guard_factor * float(np.mean([static_guard_fraction(coarse, process, v)
                                                           for v in feeds_mm_s]))
     wanted = fraction * float(process.removal_numerator(process.force_max_n))
     zero_cut = process.zero_cut_force_n()
