@@ -186,7 +186,8 @@ def _day(fleet, hours=24):
 def test_the_exact_day_is_the_cheapest_of_all_commitment_sequences():
     """Dynamic programming over commitments and down times against every sequence of
     commitments over 5 hours, with the tables' starting costs (CS by hours down)."""
-    from hex_control.seeds.unit_commitment.day import CAP_HOURS, exact_schedule
+    from hex_control.seeds.unit_commitment.day import exact_schedule
+    from hex_control.seeds.unit_commitment.search import CAP_HOURS
 
     fleet = Fleet("two", (Unit(10.0, 60.0, 80.0, 6.0, 0.02, (40.0, 70.0, 90.0)),
                           Unit(5.0, 40.0, 20.0, 7.5, 0.03, (10.0, 15.0, 18.0))))
@@ -251,8 +252,8 @@ def test_the_cheapest_transfers_run_every_hour_at_one_incremental_cost():
     """Eq. 2.7 across the hours: for fixed commitments the day is cheapest where every hour
     whose transfer is inside its limits has the same lambda; no general solver finds a
     cheaper day; sum r = 0 (4.3) and the R and S bounds (2.3, 2.4) hold."""
-    from hex_control.seeds.unit_commitment.day import cheapest_transfers, transfer_bounds
     from hex_control.seeds.unit_commitment.storage import Storage
+    from hex_control.seeds.unit_commitment.transfers import cheapest_transfers, transfer_bounds
 
     fleet, day, _ = _small_day()
     commitments = [(True,) * len(fleet)] * 24
@@ -367,7 +368,8 @@ def test_an_hourly_replan_dearer_than_keeping_to_the_last_one_is_not_taken(monke
     import hex_control.seeds.unit_commitment.online as online
     from hex_control.estimation.gauss_markov import GaussMarkovModel
     from hex_control.estimation.kalman import OneStepPredictor
-    from hex_control.seeds.unit_commitment.day import DaySchedule, deterministic_schedule, hours_down
+    from hex_control.seeds.unit_commitment.day import deterministic_schedule
+    from hex_control.seeds.unit_commitment.search import DaySchedule, hours_down
 
     fleet, day, table = _small_day()
     plan = deterministic_schedule(fleet, day.demand_mw, day.storage, table)
@@ -391,7 +393,7 @@ def test_the_replan_prices_a_commitment_a_few_mw_short_at_what_the_store_makes_u
     make up the difference (on 41 machines the DP instead swapped a running unit for one
     at 9,974 a start, on two Gauss-Markov days in 160). Within ``reach_mw`` it is priced at
     the total it can generate plus the difference at the day's energy price."""
-    from hex_control.seeds.unit_commitment.day import running_cost, search_commitments
+    from hex_control.seeds.unit_commitment.search import running_cost, search_commitments
 
     fleet = Fleet("base_and_peaker", (Unit(0.0, 100.0, 0.0, 10.0, 0.01, (600.0,)),
                                       Unit(0.0, 50.0, 200.0, 20.0, 0.01, (10_000.0,))))

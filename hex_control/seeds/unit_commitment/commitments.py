@@ -9,9 +9,10 @@ a lower bound on every commitment in it is no better than the K-th found so far.
 is the Lagrangian dual of the dispatch (the relaxation of Bertsekas et al., the paper's
 [3]): for any lambda, lambda G + sum over units of min over their states of (CG - lambda
 G_i), each unit on or off as it likes unless fixed; it is maximized over lambda on a
-grid that closes in (the dual is concave). Weak duality makes it a bound at every lambda, so the search is
-exact; where the bound ties the K-th cost the branch is cut, which may drop a commitment
-of that same cost, never a cheaper one.
+fixed grid, then on grids that close in (the dual is concave). Weak duality makes it a
+bound at every lambda, so the search is exact. Of commitments of equal cost the one with
+units earlier in the fleet on ranks first, and a branch whose bound ties the K-th cost is
+searched, so the table does not depend on the order of the search.
 
 Units: MW, cost units per hour.
 """
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.dispatch import dispatch_hours
 from hex_control.seeds.unit_commitment.fleet import Fleet
 
 
@@ -35,36 +36,48 @@ class Commitment:
     incremental_cost: float  # lambda of the dispatch (per MWh)
 
 
-class _Fleet:
-    """The fleet as arrays, for the bound."""
+class _Bound:
+    """The Lagrangian bound on the fleet's arrays (:attr:`Fleet.arrays`)."""
 
-    def __init__(self, fleet: Fleet):
-        self.fleet = fleet
-        names = ("g_min_mw", "g_max_mw", "a1", "a2", "a3")
-        self.g_min, self.g_max, self.a1, self.a2, self.a3 = (
-            np.array([getattr(u, name) for u in fleet.units], float) for name in names)
+    def __init__(self, fleet: Fleet, grid_points: int = 1025):
+        self.arrays = arrays = fleet.arrays
+        self.g_min, self.g_max, self.a1, self.a2, self.a3 = arrays.g_min, arrays.g_max, arrays.a1, arrays.a2, arrays.a3
         # above this lambda every unit would rather be on, at G_max (CG(G_max) < lambda G_max)
         self.lambda_max = float(np.max(self.a2 + 2 * self.a3 * self.g_max + self.a1 / self.g_max)) + 1.0
         self.half_inverse_a3 = 0.5 / self.a3
+        # every unit's term on a fixed grid of lambda, once: a bound at each point costs two
+        # matrix-vector products
+        self.grid = np.linspace(0.0, self.lambda_max, grid_points)
+        self.grid_terms = self._terms(self.grid[:, None])
+        self.grid_negative = np.minimum(self.grid_terms, 0.0)
 
-    def bound(self, total_mw: float, on: np.ndarray, free: np.ndarray, stages: int = 5,
+    def _terms(self, lam: np.ndarray) -> np.ndarray:
+        """min over G_i of CG_i - lambda G_i, per lambda (rows) and unit (columns)."""
+        g = np.minimum(np.maximum((lam - self.a2) * self.half_inverse_a3, self.g_min), self.g_max)
+        return self.a1 + (self.a2 - lam) * g + self.a3 * g * g
+
+    def bound(self, total_mw: float, on: np.ndarray, free: np.ndarray, stages: int = 2,
               points: int = 16) -> tuple[float, np.ndarray]:
         """The dual bound of every commitment with the units ``on`` on and the ``free`` ones
-        either way (the rest off). The dual is concave in lambda: it is taken on a grid of
-        ``points``, which then closes in around the best of them, ``stages`` times (each
-        grid's best is a bound; the last is within a hundredth of a cost unit of the dual's
-        maximum on the appendix fleets). Also which units the relaxation would have on there."""
-        low, high, best, wanted = 0.0, self.lambda_max, -np.inf, None
+        either way (the rest off). The dual is concave in lambda: it is taken on the fixed
+        grid, then on a grid of ``points`` that closes in around the best point, ``stages``
+        times (each grid's best is a bound, by weak duality). Also which units the
+        relaxation would have on there."""
+        dual = self.grid * total_mw + self.grid_terms @ on + self.grid_negative @ free
+        i = int(np.argmax(dual))
+        best, wanted = float(dual[i]), self.grid_terms[i] < 0
+        step = self.grid[1] - self.grid[0]
+        centre = self.grid[i]
         for _ in range(stages):
-            lam = np.linspace(low, high, points)[:, None]
-            g = np.minimum(np.maximum((lam - self.a2) * self.half_inverse_a3, self.g_min), self.g_max)
-            terms = self.a1 + (self.a2 - lam) * g + self.a3 * g * g  # min over G_i of CG - lambda G_i
-            dual = lam[:, 0] * total_mw + terms[:, on].sum(axis=1) + np.minimum(terms[:, free], 0.0).sum(axis=1)
+            low = max(0.0, centre - step)
+            step = (centre + step - low) / (points - 1)
+            lam = low + step * np.arange(points)
+            terms = self._terms(lam[:, None])
+            dual = lam * total_mw + terms @ on + np.minimum(terms, 0.0) @ free
             i = int(np.argmax(dual))
             if dual[i] > best:
                 best, wanted = float(dual[i]), terms[i] < 0
-            step = (high - low) / (points - 1)
-            low, high = max(0.0, float(lam[i, 0]) - step), float(lam[i, 0]) + step
+            centre = lam[i]
         return best, wanted
 
 
@@ -74,7 +87,7 @@ def cheapest_commitments(fleet: Fleet, total_mw: float, k: int = 5) -> list[Comm
     units are on are one: it is listed with the first of them (in the fleet's order) on."""
     if k < 1:
         raise ValueError(f"need k >= 1, got {k}")
-    arrays = _Fleet(fleet)
+    arrays = fleet.arrays.cache.get("bound") or fleet.arrays.cache.setdefault("bound", _Bound(fleet))
     n = len(fleet)
     if not 0 < total_mw <= arrays.g_max.sum():
         raise ValueError(f"{total_mw} MW is beyond the fleet's 0..{arrays.g_max.sum():g} MW")
@@ -84,30 +97,28 @@ def cheapest_commitments(fleet: Fleet, total_mw: float, k: int = 5) -> list[Comm
     # n of them on is counted once
     twin_of_previous = [depth > 0 and fleet.units[order[depth]] == fleet.units[order[depth - 1]]
                         for depth in range(n)]
-    found: list[tuple[float, int, Commitment]] = []  # a max-heap on cost, by negation
-    counter = 0
+    # a max-heap on cost, by negation; of equal costs the commitment with units earlier in
+    # the fleet on ranks first (so the table does not depend on the order of the search)
+    found: list[tuple[float, tuple[bool, ...], Commitment]] = []
 
     def kth_cost() -> float:
         return -found[0][0] if len(found) == k else np.inf
 
     def search(depth: int, on: np.ndarray, free: np.ndarray) -> None:
-        nonlocal counter
         if arrays.g_min[on].sum() > total_mw + 1e-9 or arrays.g_max[on | free].sum() < total_mw - 1e-9:
             return  # no commitment in this branch can generate the total
         if depth == n:
-            units = [fleet.units[i] for i in np.flatnonzero(on)]
-            dispatch = economic_dispatch(units, total_mw)
-            if dispatch.cost_per_h < kth_cost():
-                levels = np.zeros(n)
-                levels[on] = dispatch.levels_mw
-                entry = Commitment(tuple(bool(x) for x in on), levels, dispatch.cost_per_h, dispatch.incremental_cost)
-                counter += 1
-                heapq.heappush(found, (-dispatch.cost_per_h, counter, entry))
+            costs, lam, levels = dispatch_hours(arrays.arrays, on[None], [total_mw])
+            cost = float(costs[0])
+            key = (-cost, tuple(bool(x) for x in on))
+            if len(found) < k or key > found[0][:2]:
+                entry = Commitment(tuple(bool(x) for x in on), levels[0], cost, float(lam[0]))
+                heapq.heappush(found, (*key, entry))
                 if len(found) > k:
                     heapq.heappop(found)
             return
         bound, wanted = arrays.bound(total_mw, on, free)
-        if bound >= kth_cost():
+        if bound > kth_cost():  # a tie may still rank first
             return
         unit = order[depth]
         states = (True, False) if wanted[unit] else (False, True)  # the relaxation's choice first
@@ -120,4 +131,4 @@ def cheapest_commitments(fleet: Fleet, total_mw: float, k: int = 5) -> list[Comm
             search(depth + 1, branch_on, branch_free)
 
     search(0, np.zeros(n, bool), np.ones(n, bool))
-    return [entry for _, _, entry in sorted(found, key=lambda item: -item[0])]
+    return [entry for *_, entry in sorted(found, key=lambda item: item[:2], reverse=True)]

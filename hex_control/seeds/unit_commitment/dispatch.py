@@ -5,6 +5,9 @@ is piecewise linear in lambda, and so is the total: between two consecutive brea
 (a unit reaching a bound) it is a straight line, so lambda is found exactly on the
 breakpoints, without iteration.
 
+:func:`dispatch_hours` is the one implementation: many hours (or commitments) at once, on
+the fleet's arrays; :func:`economic_dispatch` is it for one list of units.
+
 Units: MW, cost units per hour, lambda in cost units per MWh.
 """
 
@@ -14,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hex_control.seeds.unit_commitment.fleet import Unit
+from hex_control.seeds.unit_commitment.fleet import FleetArrays, Unit
 
 
 @dataclass(frozen=True)
@@ -24,8 +27,35 @@ class Dispatch:
     cost_per_h: float  # the running costs' sum (eq. 2.5)
 
 
-def _outputs(lam, a2, a3, g_min, g_max) -> np.ndarray:
-    return np.clip((np.asarray(lam, float)[..., None] - a2) / (2.0 * a3), g_min, g_max)
+def committed_bounds(arrays: FleetArrays, on) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest) total (MW) that each commitment of ``on`` (..., M) can generate."""
+    on = np.asarray(on, bool)
+    return on @ arrays.g_min, on @ arrays.g_max
+
+
+def dispatch_hours(arrays: FleetArrays, on, generation_mw) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(running cost per hour (T,), lambda (T,), levels (T, M), 0 for units off) of the
+    economic dispatch of each row of ``on`` (T, M) at its ``generation_mw`` (T,), clipped to
+    what its units can generate. Exact: each row's total is piecewise linear in lambda
+    between the fleet's breakpoints, so lambda is interpolated between the two that bracket
+    the total. Every unit that is on needs a3 > 0."""
+    on = np.atleast_2d(np.asarray(on, bool))
+    low, high = committed_bounds(arrays, on)
+    generation = np.clip(np.broadcast_to(np.asarray(generation_mw, float), low.shape), low, high)
+    breakpoints = arrays.breakpoints
+    if breakpoints.size == 1:  # every unit's range is one point of lambda: any lambda there
+        lam = np.full(generation.shape, breakpoints[0])
+    else:
+        totals = on @ arrays.outputs_at_breakpoints.T  # (T, K), nondecreasing along a row
+        j = np.clip((totals < generation[:, None]).sum(axis=1), 1, breakpoints.size - 1)
+        rows = np.arange(generation.size)
+        below, above = totals[rows, j - 1], totals[rows, j]
+        rising = above > below
+        lam = np.where(rising, breakpoints[j - 1] + (generation - below) * (breakpoints[j] - breakpoints[j - 1])
+                       / np.where(rising, above - below, 1.0), breakpoints[j])
+    levels = arrays.outputs(lam) * on
+    cost = ((arrays.a1 + arrays.a2 * levels + arrays.a3 * levels * levels) * on).sum(axis=1)
+    return cost, lam, levels
 
 
 def economic_dispatch(units: list[Unit] | tuple[Unit, ...], demand_mw: float) -> Dispatch:
@@ -33,23 +63,12 @@ def economic_dispatch(units: list[Unit] | tuple[Unit, ...], demand_mw: float) ->
     if it is outside their combined bounds. Every unit needs a3 > 0."""
     if not units:
         raise ValueError("no unit committed")
-    g_min, g_max, a2, a3 = (np.array([getattr(u, name) for u in units], float)
-                            for name in ("g_min_mw", "g_max_mw", "a2", "a3"))
-    if np.any(a3 <= 0):
+    if any(u.a3 <= 0 for u in units):
         raise ValueError("economic dispatch by incremental cost needs a3 > 0 for every unit")
-    low, high = g_min.sum(), g_max.sum()
+    arrays = FleetArrays(units)
+    low, high = arrays.g_min.sum(), arrays.g_max.sum()
     tolerance = 1e-9 * max(high, 1.0)
     if not np.isfinite(demand_mw) or not low - tolerance <= demand_mw <= high + tolerance:
         raise ValueError(f"demand {demand_mw} MW is outside the committed units' {low:g}..{high:g} MW")
-    demand = min(max(float(demand_mw), low), high)
-    breakpoints = np.unique(np.concatenate([a2 + 2 * a3 * g_min, a2 + 2 * a3 * g_max]))
-    totals = _outputs(breakpoints, a2, a3, g_min, g_max).sum(axis=1)  # nondecreasing
-    j = int(np.clip(np.searchsorted(totals, demand), 1, len(breakpoints) - 1)) if len(breakpoints) > 1 else 0
-    if len(breakpoints) == 1 or totals[j] == totals[j - 1]:
-        lam = float(breakpoints[j])
-    else:  # the total is a straight line between breakpoints j - 1 and j
-        lam = float(breakpoints[j - 1] + (demand - totals[j - 1]) * (breakpoints[j] - breakpoints[j - 1])
-                    / (totals[j] - totals[j - 1]))
-    levels = _outputs(lam, a2, a3, g_min, g_max)
-    cost = float(sum(u.running_cost(g) for u, g in zip(units, levels)))
-    return Dispatch(levels, lam, cost)
+    cost, lam, levels = dispatch_hours(arrays, np.ones((1, len(units)), bool), [float(demand_mw)])
+    return Dispatch(levels[0], float(lam[0]), float(cost[0]))

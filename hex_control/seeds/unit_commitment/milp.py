@@ -30,9 +30,11 @@ import numpy as np
 from scipy import sparse
 from scipy.optimize import Bounds, LinearConstraint, milp
 
-from hex_control.seeds.unit_commitment.day import DayPlan, cheapest_transfers, hours_down, search_commitments
+from hex_control.seeds.unit_commitment.day import DayPlan
 from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.search import hours_down, search_commitments
 from hex_control.seeds.unit_commitment.storage import Storage
+from hex_control.seeds.unit_commitment.transfers import cheapest_transfers
 
 
 @dataclass(frozen=True)

@@ -46,19 +46,19 @@ import numpy as np
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 from hex_control.estimation.identify import identify
 from hex_control.estimation.kalman import OneStepPredictor
-from hex_control.seeds.unit_commitment.day import (
-    DayPlan,
-    cheapest_transfers,
+from hex_control.seeds.unit_commitment.day import DayPlan, deterministic_schedule
+from hex_control.seeds.unit_commitment.fleet import Fleet
+from hex_control.seeds.unit_commitment.search import (
     hour_step,
     incremental_costs,
     running_cost,
+    running_costs,
     search_commitments,
-    transfer_bounds,
+    starting_cost,
 )
-from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
-from hex_control.seeds.unit_commitment.fleet import Fleet
 from hex_control.seeds.unit_commitment.storage import Storage
 from hex_control.seeds.unit_commitment.table import TableRow, candidates_at
+from hex_control.seeds.unit_commitment.transfers import cheapest_transfers, transfer_bounds
 
 
 @dataclass(frozen=True)
@@ -273,11 +273,8 @@ class OnlineScheduler:
             transfers = self._transfers(path, predicted_mw)
         except ValueError:
             return math.inf
-        down, total = self.down, 0.0
-        for on, generation in zip(path, predicted_mw + transfers):
-            down, start = hour_step(self.fleet, down, on)
-            total += running_cost(self.fleet, on, float(generation)) + start
-        return total
+        running = running_costs(self.fleet, path, predicted_mw + transfers)
+        return float(running.sum()) + starting_cost(self.fleet, self.down, path)
 
     def _hour_transfer(self, on, later, predicted_mw, demand_mw: float) -> float | None:
         """This hour's transfer with commitment ``on``: set for the prediction with ``later``
@@ -329,8 +326,7 @@ class OnlineScheduler:
             self.stored_mwh += r
             self.predictor.step(float(measurement[t]))
         left_in_store = self.stored_mwh - self.storage.s_start_mwh
-        lam = np.mean([economic_dispatch([u for u, x in zip(self.fleet.units, on) if x], g).incremental_cost
-                       for on, g in zip(commitments, demand + transfers)])
+        lam = float(np.mean(incremental_costs(self.fleet, commitments, demand + transfers)))
         self.stored_mwh = self.storage.s_start_mwh  # settled
         return OnlineDay(commitments, demand, transfers, running, starting, -left_in_store * lam, int(unplanned))
 
@@ -368,8 +364,6 @@ def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: 
                    progress=None) -> OnlineComparison:
     """``days`` consecutive days of demand (one fluctuation process), each scheduled on-line;
     ``progress(day, days)`` after each."""
-    from hex_control.seeds.unit_commitment.day import deterministic_schedule
-
     predictor, found = identified_predictor(fluctuation, history_days * plan.demand_mw.size, rng)
     scheduler = OnlineScheduler(fleet, table, plan, storage, predictor=predictor)
     hours = plan.demand_mw.size

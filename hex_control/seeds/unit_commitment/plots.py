@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from hex_control.plotting import plt, save
-from hex_control.seeds.unit_commitment.dispatch import economic_dispatch
+from hex_control.seeds.unit_commitment.dispatch import dispatch_hours
 from hex_control.seeds.unit_commitment.fleet import Fleet
 from hex_control.seeds.unit_commitment.table import TableRow, commitment_class
 
@@ -38,10 +38,7 @@ def plot_day(path, fleet: Fleet, demand_mw, transfers_mw, commitments, *, title:
     below the store's transfers and stored energy."""
     demand, transfers = np.asarray(demand_mw, float), np.asarray(transfers_mw, float)
     hours = np.arange(demand.size)
-    levels = np.zeros((demand.size, len(fleet)))
-    for t, (on, total) in enumerate(zip(commitments, demand + transfers)):
-        units = [i for i, x in enumerate(on) if x]
-        levels[t, units] = economic_dispatch([fleet.units[i] for i in units], float(total)).levels_mw
+    levels = dispatch_hours(fleet.arrays, commitments, demand + transfers)[2]
     order = np.argsort([-u.g_max_mw for u in fleet.units], kind="stable")
     fig, (ax, ax_store) = plt.subplots(2, 1, figsize=(10, 7), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     colours = plt.cm.viridis(np.linspace(0, 1, len(fleet)))
