@@ -79,8 +79,16 @@ class Machine:
         return float(self._x[2 * self.p.struts]) * 1e3
 
     def step(self, commands_m) -> None:
+        self.advance(commands_m, 1)
+
+    def advance(self, commands_m, steps: int) -> None:
+        """``steps`` internal steps holding ``commands_m``: bit for bit ``steps`` calls of
+        :meth:`step`, the commands checked and their input term formed once."""
         commands = np.asarray(commands_m, float).reshape(-1)
         if commands.shape != (self.p.struts,) or not np.all(np.isfinite(commands)):
             raise ValueError(f"need {self.p.struts} finite strut commands")
-        self._x = self._ad @ self._x + self._bd @ commands
-        self.time_s += self.step_s
+        ad, x, driven = self._ad, self._x, self._bd @ commands
+        for _ in range(steps):
+            x = ad @ x + driven
+            self.time_s += self.step_s
+        self._x = x

@@ -131,6 +131,11 @@ class Pru3Machine:
         self._held += 1
         self.time_s += self.step_s
 
+    def advance(self, commands_m, steps: int) -> None:
+        """``steps`` internal steps holding ``commands_m`` (as many calls of :meth:`step`)."""
+        for _ in range(steps):
+            self.step(commands_m)
+
     def _refresh(self) -> None:
         """Evaluate the dynamics at (q, q') and discretize the held closed loop."""
         q, q_dot = self.q, self.q_dot

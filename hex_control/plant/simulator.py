@@ -80,10 +80,10 @@ class PlantSimulator:
         struts = self.strut_commands_m
         if self._machine_ready and self.strut_limiter is not None:
             struts = self.strut_limiter.command(struts, duration_s)
-        for _ in range(steps):
-            self.table.step(force_command_mm)
-            if self._machine_ready:
-                self.machine.step(struts)
+        # the table and the machine do not touch within a period: each runs its steps at once
+        self.table.advance(force_command_mm, steps)
+        if self._machine_ready:
+            self.machine.advance(struts, steps)
         self.time_s += steps * self.step_s
         if self.cell is not None and self._machine_ready:
             self.centre_mm = self.locator.centre_mm(self.machine.lengths_m, self.machine.deflection_mm)

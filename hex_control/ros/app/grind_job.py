@@ -26,7 +26,6 @@ import rclpy
 import yaml
 from rclpy.action import ActionClient
 from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from hex_control.config import config_file
@@ -45,7 +44,8 @@ from hex_control.ros.infra.action_probe import ResponseProbe
 from hex_control.ros.infra.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
 from hex_control.ros.infra.message_info import info_subscription
 from hex_control.ros.infra.messages import to_primitive
-from hex_control.ros.tools.recorder import Recorder
+from hex_control.ros.infra.runtime import make_executor
+from hex_control.ros.tools.recorder import BATCHED_IN_TELEMETRY, Recorder
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
@@ -60,6 +60,8 @@ def name_of(names: tuple[str, ...], value: int) -> str:
     return names[value] if 0 <= value < len(names) else f"status {value}"
 
 
+#: topics a job's recording leaves out (relative to the cell)
+RECORD_EXCLUDED = BATCHED_IN_TELEMETRY
 KEPT_WHILE_UNNAMED = 200  # messages per publisher held until discovery names it: a late joiner's kept history
 
 
@@ -103,6 +105,7 @@ class JobObserver(Node):
         self.job_id = None  # the job whose messages are recorded
         self.job_result = None
         self.foreign_messages = 0
+        self.telemetry_arrivals = None  # a list to get (wall s, sim s of the last sample) per batch (hexctl bench)
 
     def destroy_node(self) -> None:
         # rclpy's destroy_node leaves waitables: the action client would keep the node and its
@@ -164,6 +167,8 @@ class JobObserver(Node):
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
         record, n = self.record, len(msg.strut_names)
+        if self.telemetry_arrivals is not None and len(msg.time_s):
+            self.telemetry_arrivals.append((time.monotonic(), msg.time_s[-1]))
         if record.force and len(msg.time_s) >= 2 and msg.time_s[0] - record.force[-1][0] > 1.5 * (
                 msg.time_s[1] - msg.time_s[0]):
             record.telemetry_gaps.append((record.force[-1][0], msg.time_s[0]))  # batches lost on the way
@@ -247,13 +252,16 @@ class JobSession:
         # no rclpy signal handlers: they shut the context down from a thread of their own, racing
         # the SystemExit that `hexctl demo` raises on SIGTERM to stop the graph (a CI run exited 1, not 143)
         rclpy.init(context=self.context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
-        self.executor = SingleThreadedExecutor(context=self.context)
+        # the graph's executor (events unless HEX_EXECUTOR=single): a SingleThreadedExecutor
+        # rebuilding its wait set for every message took 0.18-0.25 CPU s per simulated s here
+        self.executor = make_executor(context=self.context)
         self.observer = JobObserver(self.record, context=self.context, namespace=namespace or "/")
         self.executor.add_node(self.observer)
         self.recorder = None
-        if record:  # every topic of the cell, into output/recording (rosbag2's MCAP layout)
+        if record:  # every topic of the cell, into output/recording (rosbag2's MCAP layout), but the
+            # per-period streams that plant/telemetry batches (recorded: the plant would send them only for us)
             self.recorder = Recorder(self.observer, BagWriter(fresh_recording_dir(self.output)), all_topics=True,
-                                     under=namespace)
+                                     under=namespace, exclude=RECORD_EXCLUDED)
         self.goal_handle = self.result_future = None
 
     def __enter__(self) -> JobSession:

@@ -4,9 +4,14 @@ and play one back: ``hexctl record`` / ``hexctl play``, and the recorder every
 
 The recorder subscribes raw (the CDR bytes, never deserialized) to the topics it is given,
 or with ``all_topics`` to every topic it discovers as it appears, except hidden ones
-(a name part starting with '_', as ``ros2 bag record -a``). It subscribes as the
-publishers offer: transient-local if one of them is (a latched topic's last message is
-recorded too), reliable if all are.
+(a name part starting with '_', as ``ros2 bag record -a``) and those it is told to leave
+out (``exclude``). It subscribes as the publishers offer: transient-local if one of them is
+(a latched topic's last message is recorded too), reliable if all are.
+
+A recorder's subscription is not free for the publisher: the plant computes and sends
+``plant/strut_states`` every control period only while someone subscribes, so a job's
+recorder leaves out the per-period streams that ``plant/telemetry`` already carries in
+batches (:data:`BATCHED_IN_TELEMETRY`); the batches are recorded as they are.
 """
 
 from __future__ import annotations
@@ -22,6 +27,9 @@ from hex_control.recording.playback import paced, parse_remaps
 from hex_control.ros.infra.messages import message_class
 
 DISCOVERY_PERIOD_S = 0.5
+#: per-period plant streams whose content plant/telemetry batches (strut lengths, true force,
+#: deflection, tool centre): a job's recording keeps the batches and leaves these out
+BATCHED_IN_TELEMETRY = ("plant/strut_states", "plant/true_wrench", "plant/deflection", "plant/tool_centre")
 DEPTH = 1000  # a burst of this many messages between two executor turns is kept
 ACK_WAIT_S = 2.0  # play: at the end, wait this long in all for reliable subscribers' acknowledgements
 
@@ -38,15 +46,16 @@ def _offered(info) -> dict:
 
 class Recorder:
     """Records into ``writer`` on ``node``'s executor: ``topics`` (full names), or all of them,
-    or all under the namespace ``under``."""
+    or all under the namespace ``under``, but those of ``exclude`` (names relative to ``under``)."""
 
     def __init__(self, node, writer: BagWriter, topics=None, all_topics: bool = False, *, on_first=None,
-                 under: str = ""):
+                 under: str = "", exclude=()):
         if not all_topics and not topics:
             raise ValueError("record which topics? give some, or all")
         self.node, self.writer = node, writer
         self.wanted = None if all_topics else {node.resolve_topic_name(t) for t in topics}
         self.under = under.rstrip("/") + "/"
+        self.excluded = {self.under + t.lstrip("/") for t in exclude}
         self.subscriptions = {}
         self.counts: dict[str, int] = {}
         self.on_first = on_first  # called with a topic's name on its first message
@@ -55,7 +64,8 @@ class Recorder:
 
     def discover(self) -> None:
         for name, types in self.node.get_topic_names_and_types():
-            if name in self.subscriptions or (self.wanted is not None and name not in self.wanted):
+            if (name in self.subscriptions or name in self.excluded
+                    or self.wanted is not None and name not in self.wanted):
                 continue
             if self.wanted is None and (_hidden(name) or not name.startswith(self.under)):
                 continue
@@ -94,9 +104,8 @@ class Recorder:
 def record(output: str, topics, all_topics: bool, duration_s: float | None) -> int:
     """``hexctl record``: until Ctrl-C (or ``duration_s``); prints what it recorded."""
     import rclpy
-    from rclpy.executors import SingleThreadedExecutor
 
-    from hex_control.ros.infra.runtime import init, spin_until_stopped
+    from hex_control.ros.infra.runtime import init, make_executor, spin_until_stopped
 
     stop = init([])
     node = rclpy.create_node("hexctl_record", start_parameter_services=False)
@@ -104,7 +113,7 @@ def record(output: str, topics, all_topics: bool, duration_s: float | None) -> i
                         on_first=lambda topic: print(f"first message on {topic}", flush=True))
     if duration_s is not None:
         node.create_timer(duration_s, stop.set)
-    executor = SingleThreadedExecutor()
+    executor = make_executor()
     executor.add_node(node)
     print(f"recording {'all topics' if all_topics else ', '.join(sorted(recorder.wanted))} into {output} "
           "(Ctrl-C ends it)", flush=True)
