@@ -92,6 +92,43 @@ def test_eq_21_command_lowers_the_index_of_eq_20_over_one_period():
     assert index_after(u) < 0.9 * index_after(controller.desired_voltage(0.0, 0.0, (0.0, 0.0)))
 
 
+def eq_21_feedback(model, q1: float, r: float, period_s: float) -> np.ndarray:
+    """Eq. 21's feedback matrix written out with R = r I and Q1 = q1 I: u = -F (q' - q_bar' -
+    q_hat'), F = (R + R^T)^-1 int_0^Delta B^T Phi^T ds (M*^T Q1^T + Q1 M*), for the drives'
+    linear model M* q'' = -L* q' + B_u U in the wheel rates; Phi by Simpson's rule."""
+    from scipy.linalg import expm
+
+    from hex_control.seeds.mobile_platform.control import wheel_rate_matrix
+
+    j = wheel_rate_matrix(model)
+    mass = j.T @ np.diag(model.quasi_mass) @ j
+    drive = model.gear_ratio * model.torque_constant_n_m_a / model.armature_resistance_ohm
+    a = -np.linalg.solve(mass, drive * model.gear_ratio * model.torque_constant_n_m_a * np.eye(2))
+    b = np.linalg.solve(mass, drive * np.eye(2))
+    nodes = np.linspace(0.0, period_s, 201)
+    weights = np.full(nodes.size, 2.0)
+    weights[1:-1:2], weights[0], weights[-1] = 4.0, 1.0, 1.0
+    g = np.einsum("k,kij->ij", weights * period_s / (3 * (nodes.size - 1)), [expm(a * t) @ b for t in nodes])
+    big_r, big_q1 = r * np.eye(2), q1 * np.eye(2)
+    return np.linalg.solve(big_r + big_r.T, g.T @ (mass.T @ big_q1.T + big_q1 @ mass))
+
+
+def test_eq_21_gain_is_q1_over_r_with_the_seeds_half():
+    """Eq. 21: (R + R^T)^-1 = (2 r)^-1 halves the symmetrized (M*^T Q1^T + Q1 M*) = 2 q1 M*,
+    so the feedback is (q1 / r) G^T M*: the controller's gain is q1 / r and only the ratio
+    matters. The variant that drops the 1/2 (the project's law before issue 41) is rejected."""
+    import seed_004_mutants as mutants
+    from hex_control.seeds.mobile_platform.control import EnergyIndexController
+
+    gain = CASE.energy_index["gain"]
+    for q1, r in ((gain, 1.0), (2 * gain, 2.0), (gain * 1e-3, 1e-3)):
+        expected = eq_21_feedback(MODEL, q1, r, CASE.period_s)
+        assert CASE.energy_controller().feedback == pytest.approx(expected, rel=1e-6)
+    wrong = mutants.EnergyIndexWithoutHalf(MODEL, gain, CASE.energy_index["k"], CASE.period_s)
+    assert not np.allclose(wrong.feedback, eq_21_feedback(MODEL, gain, 1.0, CASE.period_s), rtol=0.1)
+    assert isinstance(wrong, EnergyIndexController)
+
+
 def test_odometry_follows_the_true_pose_to_the_encoders_resolution():
     desired = CASE.desired()
     true = simulate_platform(CASE.plant, CASE.pid_controller(), desired, CASE.period_s, with_friction=False)

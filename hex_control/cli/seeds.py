@@ -14,12 +14,15 @@ def add_parsers(commands) -> None:
                                    "control against two PIDs (PNG, JSON)")
     platform_verbs = platform.add_subparsers(dest="verb", required=True)
     for verb, text in (("compare", "both controllers on Fig. 7's and Fig. 10's paths, as modelled and loaded"),
-                       ("tune", "tune both controllers by the same ITAE minimization (prints the gains)")):
+                       ("tune", "tune both controllers by one optimizer, criterion and budget (prints the gains)")):
         job = platform_verbs.add_parser(verb, help=text)
         job.add_argument("--case", default="platform.yaml", help="case file (config/mobile_platform/ or a path)")
         job.add_argument("--output", default="output/platform")
         if verb == "tune":
-            job.add_argument("--iterations-per-gain", type=int, default=40, help="Nelder-Mead iterations per gain")
+            job.add_argument("--budget", type=int, default=60,
+                             help="evaluations per controller (2 simulations each; Sobol start, then Nelder-Mead)")
+            job.add_argument("--criterion", choices=("rms_path", "itae"), default="rms_path",
+                             help="RMS path error or ITAE of |H - H_bar|, summed over both plants")
     chatter.set_defaults(func=_chatter)
     platform.set_defaults(func=_platform)
 
@@ -61,7 +64,7 @@ def _platform(args) -> int:
     import yaml
     from tqdm import tqdm
 
-    from hex_control.seeds.mobile_platform import study, tuning
+    from hex_control.seeds.mobile_platform import study
     from hex_control.seeds.mobile_platform.case import PlatformCase
 
     case = PlatformCase.from_yaml(args.case)
@@ -73,11 +76,17 @@ def _platform(args) -> int:
         print(f"wrote {args.output}/platform_path_fig7.png, platform_path_fig10.png, platform_heading_fig7.png, "
               "platform_heading_fig10.png, platform.json")
         return 0
+    from hex_control.seeds.mobile_platform import fair
+
+    if args.budget < 6:
+        raise ValueError(f"--budget must be >= 6, got {args.budget}")
     tuned = {}
-    for name, tune in (("energy_index", tuning.tune_energy_index), ("two_pid", tuning.tune_two_pid)):
-        with tqdm(desc=f"tuning {name}", unit="run") as bar:
-            tuned[name], itae = tune(case, args.iterations_per_gain, progress=lambda: bar.update(1))
-        print(f"{name}: ITAE {itae:.3e} m s^2 (summed over the tuning plants)")
+    for name in ("energy_index", "two_pid"):
+        with tqdm(total=args.budget, desc=f"tuning {name}", unit="run") as bar:
+            result = fair.tune(case, name, args.budget, args.criterion, progress=lambda: bar.update(1))
+        tuned[name] = fair.as_case_gains(name, result.gains)
+        print(f"{name}: {args.criterion} {result.value:.3e} (summed over the tuning plants) after "
+              f"{result.evaluations} evaluations")
     Path(args.output).mkdir(parents=True, exist_ok=True)
     text = yaml.safe_dump(tuned, default_flow_style=None, sort_keys=False)
     (Path(args.output) / "tuned.yaml").write_text(text)

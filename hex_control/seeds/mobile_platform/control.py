@@ -12,7 +12,9 @@ wheel rates. They differ in how they drive the wheels to those rates:
   G = int_0^Delta e^(A s) ds B. Eq. 21 is a variation about the desired motion (eq. 7: the
   control does not change the desired trajectory), so the voltage is U = U_0 + u with U_0
   the model's voltage for the desired motion itself (inertia, the a-offset's terms, back
-  EMF; no friction: the model does not know it). Q1 = q1 I and R = r I: only q1 / r matters.
+  EMF; no friction: the model does not know it). Q1 = q1 I and R = r I: only q1 / r matters,
+  and (R + R^T)^-1 (M*^T Q1^T + Q1 M*) = (q1 / r) M*: the 1/2 of (R + R^T)^-1 = (2 r)^-1
+  cancels the 2 of the symmetrized M*, so the feedback is (q1 / r) G^T M*.
 - two PIDs: one on the speed error, one on the turn-rate error, U_1,2 = U_v -/+ U_w, with
   the derivative filtered and the integrators held while a drive saturates.
 
@@ -74,7 +76,9 @@ class EnergyIndexController:
         block = np.zeros((4, 4))
         block[:2, :2], block[:2, 2:] = a, b
         g = expm(block * period_s)[:2, 2:]  # int_0^Delta e^(A s) ds B
-        self.feedback = gain * g.T @ (self.mass.T + self.mass)  # (R + R^T)^-1 G^T (M*^T Q1^T + Q1 M*), Q1 = q1 I
+        r_matrix, q1_matrix = np.eye(2), gain * np.eye(2)  # R = r I with r = 1, Q1 = (q1 / r) I
+        self.feedback = np.linalg.solve(r_matrix + r_matrix.T,  # (R + R^T)^-1 G^T (M*^T Q1^T + Q1 M*)
+                                        g.T @ (self.mass.T @ q1_matrix.T + q1_matrix @ self.mass))
         self.inverse_rates = np.linalg.inv(j)
 
     def desired_voltage(self, v: float, w: float, accelerations) -> np.ndarray:
