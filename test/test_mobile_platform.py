@@ -118,6 +118,7 @@ def test_eq_21_gain_is_q1_over_r_with_the_seeds_half():
     so the feedback is (q1 / r) G^T M*: the controller's gain is q1 / r and only the ratio
     matters. The variant that drops the 1/2 (the project's law before issue 41) is rejected."""
     import seed_004_mutants as mutants
+
     from hex_control.seeds.mobile_platform.control import EnergyIndexController
 
     gain = CASE.energy_index["gain"]
