@@ -36,7 +36,7 @@ def _unit_commitment(args) -> int:
         summary = report.build_table(args.fleet, args.output, args.k, args.step)
         built = "read from the output folder" if summary["build_s"] is None else f"built in {summary['build_s']:.1f} s"
         print(f"{summary['fleet']}: {summary['levels']} levels {summary['levels_mw'][0]:g}..{summary['levels_mw'][1]:g}"
-              f" MW, {args.k} candidates each, {built}; wrote {args.output}/table_{summary['fleet']}.png")
+              f" MW, {args.k} candidates each, {built}; wrote {summary['png']}")
     elif args.verb == "day":
         summary = report.schedule_day(args.fleet, args.output, args.k, args.step, args.milp)
         print(f"{summary['fleet']}: daily cost {summary['cost']:,.1f} (running {summary['running_cost']:,.1f}, "
@@ -46,7 +46,7 @@ def _unit_commitment(args) -> int:
             peer = summary["milp"]
             print(f"MILP: {peer['cost']:,.1f} (lower bound {peer['lower_bound']:,.1f}) in {peer['solve_s']:.1f} s; "
                   f"the table algorithm is {100 * peer['table_over_lower_bound']:.3f} % above the lower bound")
-        print(f"wrote {args.output}/day_{summary['fleet']}.png")
+        print(f"wrote {summary['png']}")
     else:
         summary = report.run_online(args.fleet, args.output, args.days, args.history_days, args.std, a=args.a,
                                     seed=args.seed, k=args.k, step_mw=args.step, unbounded_store=args.unbounded_store)
@@ -57,5 +57,5 @@ def _unit_commitment(args) -> int:
             print(f"  {kind:13s} over hindsight {hindsight['mean_percent']:+.4f} ± "
                   f"{hindsight['standard_error_percent']:.4f} %, over the mean day's plan {plan['mean_percent']:+.4f}"
                   f" ± {plan['standard_error_percent']:.4f} %  (identified a = {result['identified_a']:.2f})")
-        print(f"wrote {args.output}/online_{summary['fleet']}.png")
+        print(f"wrote {summary['png']}")
     return 0

@@ -129,13 +129,55 @@ class _Day:
         return np.clip(r, self.lower, self.upper)
 
 
+def _at_one_price(fleet: Fleet, commitments, demand, lower, upper, *, transfer_total_mwh: float) -> np.ndarray | None:
+    """The cheapest transfers if the store's energy bounds do not bind: every hour at one
+    price p, sum R_t(p) = the total (exact, all hours at once: the sum is linear between
+    the breakpoints and the hours' crossings of their rate limits); None if no price
+    reaches the total."""
+    arrays = fleet.arrays
+    knots = arrays.breakpoints
+    generation = np.asarray(commitments, bool) @ arrays.outputs_at_breakpoints.T  # (T, K), rising along a row
+    crossings = [knots]
+    for level in (demand + lower, demand + upper):  # where each hour's G_t(p) crosses a rate limit
+        j = (generation < level[:, None]).sum(axis=1) - 1
+        inside = (j >= 0) & (j < knots.size - 1)
+        t, j = np.flatnonzero(inside), j[inside]
+        rise = generation[t, j + 1] - generation[t, j]
+        ok = rise > 0
+        t, j = t[ok], j[ok]
+        crossings.append(knots[j] + (level[t] - generation[t, j]) * (knots[j + 1] - knots[j]) / rise[ok])
+    prices = np.unique(np.concatenate(crossings))
+
+    def transfers_at(p):
+        if knots.size == 1:
+            g = generation[:, :1] * np.ones(np.size(p))
+        else:
+            i = np.clip(np.searchsorted(knots, p, side="right"), 1, knots.size - 1)
+            w = np.clip((p - knots[i - 1]) / (knots[i] - knots[i - 1]), 0.0, 1.0)
+            g = generation[:, i - 1] + w * (generation[:, i] - generation[:, i - 1])
+        return np.clip(g - demand[:, None], lower[:, None], upper[:, None])  # (T, P)
+
+    total = transfers_at(prices).sum(axis=0)
+    if not total[0] - 1e-6 <= transfer_total_mwh <= total[-1] + 1e-6:
+        return None
+    p = PiecewiseLinear(prices, total).inverse(transfer_total_mwh)
+    return transfers_at(np.array([p]))[:, 0]
+
+
 def cheapest_transfers(fleet: Fleet, commitments, demand_mw, storage: Storage,
                        transfer_total_mwh: float = 0.0) -> np.ndarray:
     """The transfers r(t) (MW) that make the day cheapest for the given commitments (one
     per hour): sum r = ``transfer_total_mwh`` (0: the store ends the day as it began, eq.
     4.3), R and S bounds (2.3, 2.4), and each hour's G = L + r within its committed units'
     bounds; exact (see the module). ValueError if no transfers are feasible."""
-    day = _Day(fleet, commitments, demand_mw, storage)
+    demand = np.asarray(demand_mw, float)
+    lower, upper = transfer_bounds(fleet, commitments, demand, storage)
+    r = _at_one_price(fleet, commitments, demand, lower, upper, transfer_total_mwh=transfer_total_mwh)
+    if r is not None:
+        stored = storage.stored_mwh(r)
+        if np.all(stored >= storage.s_min_mwh - 1e-6) and np.all(stored <= storage.s_max_mwh + 1e-6):
+            return r  # the store's energy bounds do not bind
+    day = _Day(fleet, commitments, demand, storage)
     least, most = day.reachable
     if not least - 1e-6 <= transfer_total_mwh <= most + 1e-6:
         raise ValueError(f"these commitments can transfer {least:g}..{most:g} MWh, not {transfer_total_mwh:g}")
