@@ -2,9 +2,15 @@
 
 Published on the steady wall clock, so a node whose sim clock stands still (the plant died,
 or holds between passes) still reports; a node on sim time with no ``/clock`` publisher
-left says so (ERROR). The level is the worst of the faults raised and not yet cleared: each
-fault has a name and clears by itself when its cause does (``clear``) or, for an event such
-as a rejected input, ``hold_s`` after it last happened.
+left says so (ERROR) -- within CLOCK_WATCH_LEASE_S of the publisher's death if it offers
+DDS liveliness (:data:`CLOCK_QOS`), at once in the report that follows. The graph alone
+learns of a killed process only when its participant's lease (20 s) runs out: the pass
+planner said "no /clock publisher" 30 s after the plant was killed. /clock messages stop
+while the plant holds between passes, so their age says nothing.
+
+The level is the worst of the faults raised and not yet cleared: each fault has a name and
+clears by itself when its cause does (``clear``) or, for an event such as a rejected input,
+``hold_s`` after it last happened.
 """
 
 from __future__ import annotations
@@ -13,10 +19,26 @@ import time
 from collections import Counter
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.duration import Duration
+from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.qos import LivelinessPolicy, QoSProfile
+from rosgraph_msgs.msg import Clock
 
 from hex_control.ros.infra.runtime import wall_timer
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
+
+#: a /clock publisher's promise (s): its process asserts it is alive every 2/3 of this
+#: (rmw_fastrtps), without a message; a clock source publishes /clock with CLOCK_QOS
+CLOCK_LEASE_S = 0.4
+#: a node on sim time counts the clock publisher lost after this long without an assertion
+#: (s): its lease, plus a margin for a publisher process stalled by a loaded machine; the
+#: report follows at once (within 2 s of the death, issue 40)
+CLOCK_WATCH_LEASE_S = 1.2
+CLOCK_QOS = QoSProfile(depth=10, liveliness=LivelinessPolicy.AUTOMATIC,
+                       liveliness_lease_duration=Duration(nanoseconds=int(CLOCK_LEASE_S * 1e9)))
+_CLOCK_WATCH_QOS = QoSProfile(depth=1, liveliness=LivelinessPolicy.AUTOMATIC,
+                              liveliness_lease_duration=Duration(nanoseconds=int(CLOCK_WATCH_LEASE_S * 1e9)))
 
 
 class Health:
@@ -67,6 +89,8 @@ class Diagnostics(Health):
         self.counters: Counter[str] = Counter()
         self.values: dict[str, str] = {}
         self._timer = wall_timer(node, period_s, self.publish)
+        self._clock_liveliness = (0, 0)  # /clock publishers with a lease: alive, not alive
+        self._clock_watch = None
 
     def count(self, name: str, increment: int = 1) -> None:
         self.counters[name] += increment
@@ -74,11 +98,37 @@ class Diagnostics(Health):
     def set(self, name: str, value) -> None:
         self.values[name] = str(value)
 
+    def _on_clock_liveliness(self, info) -> None:
+        was, self._clock_liveliness = self._clock_liveliness[0], (info.alive_count, info.not_alive_count)
+        if was > 0 and info.alive_count == 0:
+            self.publish()  # now, not at the next period: within 2 s of the publisher's death
+
+    def _watch_clock(self) -> None:
+        """Subscribe to /clock's liveliness once a publisher offers a lease: one without does
+        not match this reader (its node would log the incompatible QoS), the graph alone
+        watches it."""
+        if self._clock_watch is not None:
+            return
+        leases = [p.qos_profile.liveliness_lease_duration.nanoseconds
+                  for p in self._node.get_publishers_info_by_topic("clock")]
+        if any(0 < lease <= _CLOCK_WATCH_QOS.liveliness_lease_duration.nanoseconds for lease in leases):
+            self._clock_watch = self._node.create_subscription(
+                Clock, "/clock", lambda _msg: None, _CLOCK_WATCH_QOS, raw=True,
+                event_callbacks=SubscriptionEventCallbacks(liveliness=self._on_clock_liveliness,
+                                                           incompatible_qos=lambda _event: None))
+
     def _check_clock(self) -> None:
         if not self._node.get_parameter("use_sim_time").value:
             return
-        if self._node.count_publishers("clock") == 0:
+        self._watch_clock()
+        publishers = self._node.count_publishers("clock")
+        alive, not_alive = self._clock_liveliness
+        self.values["clock_publishers_alive"] = str(alive)  # (those with a lease)
+        if publishers == 0:
             self.fault("clock", "no /clock publisher: sim time stands still", ERROR)
+        elif alive == 0 and not_alive >= publishers:  # every publisher the graph still shows has lost its lease
+            self.fault("clock", f"/clock publisher lost (silent for {CLOCK_WATCH_LEASE_S:g} s): sim time stands "
+                                "still", ERROR)
         else:
             self.clear("clock")
 
