@@ -1,6 +1,13 @@
 """In a full ROS 2 install the workspace builds with colcon and `ros2 run hex_control <node>`
 finds the executables in lib/hex_control; package.xml declares every package the code
-imports, so `rosdep install --from-paths src` installs them."""
+imports, so `rosdep install --from-paths src` installs them.
+
+colcon's crawl (colcon_recursive_crawl: a directory identified as a package is not descended
+into) stops at the repository's root, the package hex_control, so the interface package in
+msg_defs/ is found only through a link beside the repository in the workspace's src/ (the
+README's set-up). The workspace of these tests persists in build/colcon_ws: colcon rebuilds
+only what changed, as it does for a user (the first build of hex_control_msgs takes about a
+minute, a rebuild a few seconds)."""
 
 import ast
 import os
@@ -24,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 IMPORT_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
                "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "filterpy": "python3-filterpy-pip",
                "control": "python-control-pip", "mcap_ros2": "mcap-ros2-support", "mcap": "pip: mcap",
-               "ray": "pip: ray"}
+               "ray": "pip: ray", "foxglove": "pip: foxglove-sdk"}
 
 
 def _imported_top_modules() -> set[str]:
@@ -51,45 +58,87 @@ def test_package_xml_declares_every_import():
     assert {"ament_index_python", "rclpy", "hex_control_msgs", "mcap-ros2-support"} <= keys
 
 
-def test_colcon_builds_both_packages(tmp_path, ros, ros_env):
-    """A workspace as the README sets it up: the repository under src/, and beside it the
-    link to its interface package (colcon's crawl does not descend into a package, so a
-    plain `colcon build` would not find msg_defs/ inside the repository's package root)."""
-    venv = Path(sys.prefix)
+WORKSPACE = ROOT / "build/colcon_ws"
+
+
+def _colcon(workspace: Path, *arguments: str, timeout_s: float = 900.0) -> subprocess.CompletedProcess:
+    venv = Path(sys.prefix)  # the underlay: the ROS 2 wheels, tf2_msgs built by make setup
     env = dict(os.environ, AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
-    workspace = tmp_path / "ws"
-    (workspace / "src").mkdir(parents=True)
-    (workspace / "src/hex_control").symlink_to(ROOT)
-    (workspace / "src/hex_control_msgs").symlink_to("hex_control/msg_defs")
-    result = subprocess.run(
-        [str(venv / "bin/colcon"), "build",
-         "--cmake-args", "-DBUILD_TESTING=OFF", f"-DPython3_EXECUTABLE={sys.executable}"],
-        cwd=workspace, env=env, capture_output=True, text=True, timeout=900)
+    env.pop("COLCON_PREFIX_PATH", None)
+    return subprocess.run([str(venv / "bin/colcon"), "--log-base", str(workspace / "log"), *arguments], cwd=workspace,
+                          env=env, capture_output=True, text=True, timeout=timeout_s)
+
+
+def _workspace(path: Path, *, with_link: bool = True) -> Path:
+    """A workspace holding the repository under src/ and, with ``with_link``, the README's
+    link to its interface package beside it."""
+    (path / "src").mkdir(parents=True, exist_ok=True)
+    for name, target in (("hex_control", ROOT), ("hex_control_msgs", Path("hex_control/msg_defs"))):
+        link = path / "src" / name
+        if link.is_symlink() and Path(os.readlink(link)) != target:
+            link.unlink()
+        if not link.is_symlink() and (name == "hex_control" or with_link):
+            link.symlink_to(target)
+    return path
+
+
+def _packages(workspace: Path) -> dict[str, str]:
+    """Package name -> type as `colcon build` discovers them by default: its recursive crawl
+    of the workspace (``--base-paths .``) with every installed identification extension."""
+    from argparse import Namespace
+
+    from colcon_core.package_identification import get_package_identification_extensions
+    from colcon_recursive_crawl.package_discovery.recursive_crawl import RecursiveDiscoveryExtension
+
+    found = RecursiveDiscoveryExtension().discover(args=Namespace(base_paths=[str(workspace)]),
+                                                   identification_extensions=get_package_identification_extensions())
+    return {desc.name: desc.type for desc in found}
+
+
+def test_colcon_finds_the_interface_package_only_through_the_link(tmp_path):
+    """What colcon discovers: the repository alone is one package (the crawl does not enter
+    it); with the link both, and never the nested tf2_msgs (a ROS 2 install has its own)."""
+    assert _packages(_workspace(tmp_path / "alone", with_link=False)) == {"hex_control": "ros.ament_python"}
+    assert _packages(_workspace(tmp_path / "linked")) == {"hex_control": "ros.ament_python",
+                                                          "hex_control_msgs": "ros.ament_cmake"}
+
+
+def test_colcon_builds_both_packages_and_the_nodes_start_from_setup_bash(tmp_path, ros, ros_env):
+    """A plain `colcon build` of the workspace builds both packages; the installed nodes
+    (plant, kinematics) start from a shell that sourced install/setup.bash and answer."""
+    workspace = _workspace(WORKSPACE)
+    result = _colcon(workspace, "build", "--cmake-args", "-DBUILD_TESTING=OFF",
+                     f"-DPython3_EXECUTABLE={sys.executable}")
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "2 packages finished" in result.stdout
     install = workspace / "install"
-    assert (install / "setup.sh").exists() and (install / "hex_control/share/hex_control/package.sh").exists()
+    assert (install / "setup.bash").exists() and (install / "hex_control/share/hex_control/package.bash").exists()
     executables = {p.name for p in (install / "hex_control/lib/hex_control").iterdir()}
-    assert {"load_predictor", "synthetic_load", "hexctl"} <= executables
+    assert {"load_predictor", "synthetic_load", "plant", "kinematics", "robot_state", "hexctl"} <= executables
     assert (install / "hex_control/share/ament_index/resource_index/packages/hex_control").exists()
     assert (install / "hex_control/share/hex_control/config/load_predictor.yaml").exists()
     assert (install / "hex_control/share/hex_control/config/machines/nist_ingersoll.yaml").exists()
     assert (install / "hex_control_msgs/share/hex_control_msgs/msg/LoadPrediction.msg").exists()
-    # the installed package finds its configuration through the ament index
-    site = next((install / "hex_control/lib").glob("python3*/site-packages"))
-    probe = subprocess.run(
-        [sys.executable, "-c", "from hex_control.config import config_file; "
-                               "print(config_file('load_predictor.yaml'))"],
-        env=dict(env, AMENT_PREFIX_PATH=f"{install / 'hex_control'}:{venv}", PYTHONPATH=str(site)),
-        cwd=tmp_path, capture_output=True, text=True)
-    assert probe.stdout.strip() == str(install / "hex_control/share/hex_control/config/load_predictor.yaml")
 
-    # the plant and the kinematics node start from the install, with its configuration, and answer
-    installed = dict(ros_env, AMENT_PREFIX_PATH=f"{install / 'hex_control'}:{install / 'hex_control_msgs'}:{venv}",
-                     PYTHONPATH=os.pathsep.join(str(p) for p in install.glob("*/lib/python3*/site-packages")))
-    executables = install / "hex_control/lib/hex_control"
-    nodes = [NodeProcess([str(executables / name)], installed, tmp_path / f"{name}.log")
-             for name in ("plant", "kinematics")]
+    # a shell that sourced setup.bash over the underlay finds the installed package, its
+    # configuration (through the ament index) and its interface package
+    shell = dict(ros_env, AMENT_PREFIX_PATH=str(Path(sys.prefix)))
+    shell.pop("PYTHONPATH", None)
+    sourced = f"source {install / 'setup.bash'} && "
+    probe = subprocess.run(
+        ["bash", "-c", sourced + "python -c 'import hex_control, hex_control_msgs; from hex_control.config import "
+                                 "config_file; print(hex_control.__file__, hex_control_msgs.__file__, "
+                                 "config_file(\"load_predictor.yaml\"))'"],
+        env=dict(shell, PATH=f"{Path(sys.prefix) / 'bin'}:{os.environ['PATH']}"), cwd=tmp_path, capture_output=True,
+        text=True, timeout=120)
+    assert probe.returncode == 0, probe.stderr
+    package, messages, config = probe.stdout.split()
+    assert package.startswith(str(install / "hex_control")) and messages.startswith(str(install / "hex_control_msgs"))
+    assert config == str(install / "hex_control/share/hex_control/config/load_predictor.yaml")
+
+    # the plant and the kinematics node start from it, with their configuration, and answer
+    nodes = [NodeProcess(["bash", "-c", sourced + f"exec {install / 'hex_control/lib/hex_control' / name}"],
+                         shell, tmp_path / f"{name}.log") for name in ("plant", "kinematics")]
     try:
         client = ros.node("installed_client").create_client(InverseKinematics, "/kinematics/inverse_kinematics")
         response = ros.call(client, InverseKinematics.Request(poses=[ToolPose(z_mm=-2100.0)]), timeout_s=60.0)
