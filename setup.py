@@ -31,6 +31,7 @@ setup(
         (f"share/{PACKAGE}/config/unit_commitment", glob("config/unit_commitment/*.yaml")),
         (f"share/{PACKAGE}/config/milling", glob("config/milling/*.yaml")),
         (f"share/{PACKAGE}/config/mobile_platform", glob("config/mobile_platform/*.yaml")),
+        (f"share/{PACKAGE}/config/foxglove", glob("config/foxglove/*.json")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

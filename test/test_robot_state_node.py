@@ -27,6 +27,7 @@ from hex_control.config import DEFAULT_MACHINE_FILE, config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.kinematics import load_machine
 from hex_control.kinematics.robot_model import FrameTransform, frame_pose
+from hex_control.ros.app.foxglove_view import CHANNEL_TOPICS
 from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY
 from hex_control.ros.nodes.robot_state import TF_STATIC
 from hex_control_msgs.msg import PlantTelemetry
@@ -158,6 +159,7 @@ def test_a_websocket_client_of_hexctl_view_decodes_the_scene_and_the_force(cell)
     (force)."""
     _, _, port, machine, _ = cell
     wanted = ("/scene/machine", "/scene/bead", "/tf", "/plant/wrench")
+    advertised = set()
     with connect(f"ws://127.0.0.1:{port}", subprotocols=["foxglove.sdk.v1", "foxglove.websocket.v1"],
                  open_timeout=30) as socket:
         channels, received = {}, {}
@@ -168,6 +170,7 @@ def test_a_websocket_client_of_hexctl_view_decodes_the_scene_and_the_force(cell)
                 message = json.loads(frame)
                 if message["op"] == "advertise":
                     for channel in message["channels"]:
+                        advertised.add(channel["topic"])
                         if channel["topic"] in wanted and channel["topic"] not in channels:
                             channels[channel["topic"]] = channel
                             socket.send(json.dumps({"op": "subscribe", "subscriptions": [
@@ -178,6 +181,7 @@ def test_a_websocket_client_of_hexctl_view_decodes_the_scene_and_the_force(cell)
             topic = list(channels)[subscription - 1]
             received.setdefault(topic, []).append((int.from_bytes(frame[5:13], "little"), bytes(frame[13:])))
     assert set(received) == set(wanted), f"received {sorted(received)}, channels {sorted(channels)}"
+    assert advertised == set(CHANNEL_TOPICS)
     assert channels["/scene/machine"]["encoding"] == "protobuf"
     assert channels["/scene/machine"]["schemaName"] == "foxglove.SceneUpdate"
 

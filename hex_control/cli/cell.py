@@ -41,6 +41,9 @@ def add_parsers(commands) -> None:
                            "starts afresh")
     demo.add_argument("--namespace", default=None, help="run the cell under this namespace, e.g. /cell2 (one "
                       "namespace holds one cell; cells side by side in a domain do not meet)")
+    demo.add_argument("--view", nargs="?", type=int, const=8765, default=None, metavar="PORT",
+                      help="serve the cell live to Foxglove meanwhile (hexctl view) on ws://127.0.0.1:PORT "
+                           "(default 8765); best with --realtime")
 
     predictor = commands.add_parser("demo-load-predictor", help="the Kalman load predictor alone over ROS 2")
     predictor.add_argument("--output", default="output/load_predictor", help="report directory")
@@ -92,6 +95,7 @@ def _demo(args) -> int:
             raise ValueError(f"--resume takes up one job, not --jobs {args.jobs}")
         resumable_job_dir(args.resume)  # ValueError first if there is nothing to resume
     options = run_options(given, args.resume)
+    viewer = _start_view(args.view, options["namespace"]) if args.view is not None else None
     try:
         return run_demo(args.resume or args.output, options, machine_file=MACHINES[options["machine"]],
                         jobs=args.jobs or 1, machine_host=args.machine_host.split() or None,
@@ -104,6 +108,38 @@ def _demo(args) -> int:
             return 128 + cli._terminated_by
         print(f"hexctl demo: {getattr(exc, 'one_line', exc)}", file=sys.stderr)
         return 3
+    finally:
+        if viewer is not None:
+            _stop_view(viewer)
+
+
+def _start_view(port: int, namespace: str):
+    """``hexctl view`` as a process of its own in the demo's domain (chosen here, before the
+    demo would choose it), so that the view's work never slows the demo's loop."""
+    import os
+    import subprocess
+
+    from hex_control.ros.app.grind_job import use_private_domain
+
+    if not 0 <= port <= 65535:
+        raise ValueError(f"--view: the port must be 0..65535, got {port}")
+    if use_private_domain(os.environ):
+        print(f"ROS_DOMAIN_ID={os.environ['ROS_DOMAIN_ID']}: a domain of the demo's own (export ROS_DOMAIN_ID "
+              "to run it in yours)")
+    return subprocess.Popen([sys.executable, "-P", "-m", "hex_control.cli", "view", "--port", str(port),
+                             "--namespace", namespace], start_new_session=True)
+
+
+def _stop_view(viewer) -> None:
+    import signal
+    import subprocess
+
+    viewer.send_signal(signal.SIGINT)
+    try:
+        viewer.wait(timeout=10.0)
+    except subprocess.TimeoutExpired:
+        viewer.kill()
+        viewer.wait()
 
 
 def _demo_load_predictor(args) -> int:

@@ -66,6 +66,9 @@ CONTOUR_SCHEMA = {"type": "object", "title": "hex_control_msgs/msg/Contour", "pr
     "pass_index": {"type": "integer"}, "x_mm": {"type": "array"}, "z_mm": {"type": "array"},
     "parent_mm": {"type": "array"}}}
 TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties": {"rows": {"type": "array"}}}
+#: every channel the view logs to (config/foxglove/hex_control.json shows them)
+CHANNEL_TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/plant/wrench",
+                  "/plant/true_wrench", "/grinding/contour", "/pass_table")
 STATUS = {PassResult.COMPLETED: "completed", PassResult.ABORTED: "aborted", PassResult.REJECTED: "rejected",
           PassResult.FAULTED: "faulted"}
 
