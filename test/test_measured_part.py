@@ -140,6 +140,17 @@ def test_a_last_pass_whose_level_leaves_a_spot_high_is_deepened_when_a_feed_can_
     assert amended["cut_depth_mm"] >= profile.level_depth_mm(RULE.target_mm) - 1e-12 and amended["duration_s"] <= 14.0
     assert (0.3 - profile.level_of_depth_mm(amended["cut_depth_mm"])) * amended["feed_mm_s"] <= float(
         JOB.removal_numerator(JOB.force_max_n))
+    # a last pass too fast for its guard to cut the spot (issue 42's job: +0.22 mm at x = 3 mm left
+    # +0.115 mm by an 8 s pass at 45.5 mm/s) is slowed, if a slower pass fits
+    narrow = spot_bead(mean_mm=0.09, highest_mm=0.22, at_mm=3.0, width_mm=1.5)
+    narrow = Profile(narrow.x_mm, narrow.z_mm, narrow.parent_mm)
+    last = {**fast, "force_n": 32.0, "stage_time_s": 14.0}
+    assert narrow.level_of_depth_mm(float(JOB.cut_depth_mm(32.0, feeds[0]))) < 0.1  # its level is low enough...
+    slowed = amend_decision(last, profile=narrow, process=JOB, rule=RULE, time_remaining_s=14.0, stage_time_s=14.0,
+                            feeds_mm_s=feeds, durations_s=durations)
+    assert slowed["feed_mm_s"] < feeds[0] and slowed["duration_s"] <= 14.0  # ...but not its guard
+    assert amend_decision({**last, "stage_time_s": 8.0}, profile=narrow, process=JOB, rule=RULE, time_remaining_s=8.0,
+                          stage_time_s=8.0, feeds_mm_s=feeds, durations_s=durations)["feed_mm_s"] == feeds[0]
     # another pass fits after it: the policy's pass as it was
     assert amend_decision({**fast, "stage_time_s": 40.0}, profile=profile, process=JOB, rule=RULE, time_remaining_s=40,
                           stage_time_s=40.0, feeds_mm_s=feeds, durations_s=durations) == {**fast, "stage_time_s": 40.0}

@@ -17,7 +17,7 @@ here bring the scan into the decision, each cheap beside the SDP (milliseconds):
   6.2): what it leaves standing is the level, a deterministic function of the scan and the
   mean depth, not a random walk of its own -- so it needs no second SDP state (301 x 301
   states would square the 0.2 s solve), only a rule where the mean-state policy is blind:
-  when the policy would end the job (or let its last pass leave a level) with a point above
+  when the policy would end the job (or let its last pass leave a point) above
   ``band_mm`` while a pass still fits, the planner grinds a level top at ``band_mm -
   margin_mm`` over the parent, at a feed slow enough that the highest point's cut needs no
   more than the force the plans reach, the fastest such feed that fits (or the slowest that
@@ -193,7 +193,8 @@ def amend_decision(decision: dict, *, profile: Profile | None, process: Grinding
     """The policy's decision at the measured state, with the local state in it: an end (or a
     wait) while a point stands above the band and a pass fits becomes a finishing pass; a
     last pass (none fits after it) whose level would leave a point above the band is
-    deepened to the finishing level. Otherwise the decision as it was."""
+    deepened to the finishing level (or slowed: the guard caps the highest point's cut at
+    what the force the plans reach cuts at its feed). Otherwise the decision as it was."""
     if profile is None:
         return decision
     state = profile.local_state(rule.band_mm)
@@ -205,12 +206,21 @@ def amend_decision(decision: dict, *, profile: Profile | None, process: Grinding
                                  durations_s=durations_s, reason=f"the policy would {decision['action']}")
         return {**decision, **amended} if amended is not None else decision
     cut = float(process.cut_depth_mm(decision["force_n"], decision["feed_mm_s"]))
-    if stage_time_s - decision["duration_s"] >= shortest - 1e-9 or profile.level_of_depth_mm(cut) <= rule.band_mm:
-        return decision  # another pass fits after it, or its level takes the highest point into the band
+    if (stage_time_s - decision["duration_s"] >= shortest - 1e-9
+            or highest_after_mm(profile, process, cut, decision["feed_mm_s"]) <= rule.band_mm):
+        return decision  # another pass fits after it, or it takes the highest point into the band
     amended = finishing_pass(profile, process, rule, time_left_s=stage_time_s, feeds_mm_s=feeds_mm_s,
                              durations_s=durations_s, reason="the last pass's level would leave a point high",
                              min_depth_mm=cut, only_able=True)
     return {**decision, **amended} if amended is not None else decision
+
+
+def highest_after_mm(profile: Profile, process: GrindingProcess, cut_mm: float, feed_mm_s: float) -> float:
+    """The highest point (mm over the parent) a level top of mean cut ``cut_mm`` at ``feed_mm_s``
+    leaves: its level, or where the guard caps the highest point's cut at what the force the
+    plans reach cuts at that feed (``process.force_max_n``), whichever is higher."""
+    reach_mm = float(process.removal_numerator(process.force_max_n)) / feed_mm_s
+    return max(profile.level_of_depth_mm(cut_mm), float(np.max(profile.height_mm)) - reach_mm)
 
 
 def pass_durations_s(process: GrindingProcess, feeds_mm_s, time_step_s: float) -> list[float]:
