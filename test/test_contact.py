@@ -110,3 +110,105 @@ def test_a_face_clear_of_the_whole_contour_touches_nothing_and_cuts_nothing():
         cut_x, cut_z, _ = clip_below(x, z, np.array([pose.tip_x_mm, pose.centre_x_mm]),
                                      np.array([pose.tip_z_mm, pose.centre_z_mm]))
         assert np.array_equal(cut_x, x) and np.array_equal(cut_z, z)
+
+
+# -- the incremental kernel (issue 39 item 1) ---------------------------------------------------
+
+from hex_control.grinding import contact as contact_module  # noqa: E402
+from hex_control.grinding.contact import LiveContour, clip_region  # noqa: E402
+from hex_control.grinding.contact_reference import clip_below_reference, contact_patch_reference  # noqa: E402
+from hex_control.grinding.contour import Contour  # noqa: E402
+
+BOTH_PATHS = pytest.mark.parametrize("scalar_points", [40, -1], ids=["plain floats", "numpy"])
+
+
+def _truth(x, z, cut_x, cut_z, samples):
+    """min(contour, cutter) over the cutter's span, the contour elsewhere, sampled."""
+    inside = (samples >= max(cut_x[0], x[0])) & (samples <= min(cut_x[-1], x[-1]))
+    return np.where(inside, np.minimum(np.interp(samples, x, z), np.interp(samples, cut_x, cut_z)),
+                    np.interp(samples, x, z))
+
+
+@BOTH_PATHS
+def test_a_crossing_next_to_a_cutter_vertex_above_the_contour_is_exact(monkeypatch, scalar_points):
+    """A falling contour crosses the cutter's first segment at x = 4.36 mm, and the cutter's
+    vertex at x = 6 lies above the contour. The old truncation interpolated the depth across
+    that vertex and put the crossing at 1.55 mm (up to 0.17 mm too low); the new one merges
+    every cutter vertex in the span and is exact."""
+    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+    x, z = np.array([0.0, 10.0]), np.array([1.0, 0.0])
+    cut_x, cut_z = np.array([0.0, 6.0, 12.0]), np.array([0.6, 0.55, 3.0])
+    samples = np.linspace(0.0, 10.0, 10001)
+    new_x, new_z, _ = clip_below(x, z, cut_x, cut_z)
+    np.testing.assert_allclose(np.interp(samples, new_x, new_z), _truth(x, z, cut_x, cut_z, samples), atol=1e-12)
+    assert 6.0 not in new_x  # the vertex above the contour helped find the crossing, and was dropped
+    old_x, old_z, _ = clip_below_reference(x, z, cut_x, cut_z)
+    assert np.max(np.abs(np.interp(samples, old_x, old_z) - _truth(x, z, cut_x, cut_z, samples))) > 0.15
+
+
+@BOTH_PATHS
+def test_random_truncations_are_exact_and_keep_x_increasing(monkeypatch, scalar_points):
+    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+    rng = np.random.default_rng(39)
+    for _ in range(200):
+        x = np.cumsum(rng.uniform(0.05, 1.0, 60))
+        z = rng.normal(0.0, 0.3, x.size)
+        # as the stepper's cutters: from on or above the contour, through a vertex anywhere, to
+        # above it all (a cutter ending under the contour would leave a vertical step)
+        cut_x = np.sort(rng.uniform(x[0] - 2, x[-1] + 2, 3))
+        cut_z = np.array([np.interp(cut_x[0], x, z) + rng.uniform(0.0, 0.3), rng.normal(0.0, 0.4), 2.0])
+        new_x, new_z, _ = clip_below(x, z, cut_x, cut_z, top_mm=float(z.max()) + rng.uniform(0, 1))
+        assert np.all(np.diff(new_x) > 0)
+        samples = np.linspace(x[0], x[-1], 4001)
+        np.testing.assert_allclose(np.interp(samples, new_x, new_z), _truth(x, z, cut_x, cut_z, samples), atol=1e-9)
+
+
+@BOTH_PATHS
+def test_the_narrowed_contact_search_is_the_whole_face_search(monkeypatch, scalar_points):
+    """Only the face below the contour's top is visited (and in plain floats when few points
+    lie there): the same patch as the old search over the whole face, to float tolerance."""
+    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        x = np.cumsum(rng.uniform(0.02, 1.0, 400))
+        z = rng.normal(0.0, 0.5, x.size)
+        pose = _pose(rng.uniform(x[5], x[200]), rng.normal(0.0, 0.6), rng.uniform(0.1, 0.6))
+        new, old = contact_patch(x, z, pose, top_mm=float(z.max())), contact_patch_reference(x, z, pose)
+        assert (new.patches, new.kind) == (old.patches, old.kind)
+        assert new.length_mm == pytest.approx(old.length_mm, rel=1e-9, abs=1e-12)
+        assert new.centroid_mm == pytest.approx(old.centroid_mm, rel=1e-9, abs=1e-12)
+
+
+def test_the_live_contour_is_the_contour_cut_in_full_whatever_the_order(monkeypatch):
+    """LiveContour cuts near the tool without copying the rest, moves points to its done
+    part behind the tool and back when a cut reaches behind it, grows when its gap is used
+    up, and drops points a cut laid on a straight line: the same polyline, to 1e-9 mm, as
+    truncating the whole arrays every time, its parent interpolated alike."""
+    monkeypatch.setattr(LiveContour, "SPARE", 8)  # grow often
+    rng = np.random.default_rng(5)
+    x = np.linspace(0.0, 100.0, 401)
+    contour = Contour(x, 1.0 + 0.1 * np.sin(x) + rng.normal(0, 0.02, x.size), 0.001 * (x - 50) ** 2)
+    live = LiveContour(contour)
+    full_x, full_z, full_p = contour.x_mm, contour.z_mm, contour.parent_mm
+    tip = 2.0
+    for step in range(600):
+        # as the stepper's cutters: from the last tip (on the contour) to the new one and up the face
+        last = tip if step % 50 else tip - rng.uniform(2.0, 6.0)  # now and then a jump back
+        tip = last + rng.uniform(0.05, 0.3)
+        cut_x = np.array([last, tip, tip + 30.0])
+        cut_z = np.array([np.interp(last, full_x, full_z), 0.95 + rng.normal(0, 0.02) - 0.2 * (step % 50 == 0), 12.0])
+        live.clip(cut_x, cut_z)
+        full_x, full_z, (full_p,) = clip_below(full_x, full_z, cut_x, cut_z, (full_p,))
+    got = live.contour
+    assert np.all(np.diff(got.x_mm) > 0) and got.x_mm.size < full_x.size
+    samples = np.linspace(0.0, 100.0, 20001)
+    np.testing.assert_allclose(got.height_at(samples), np.interp(samples, full_x, full_z), atol=1e-9)
+    np.testing.assert_allclose(np.interp(samples, got.x_mm, got.parent_mm), np.interp(samples, full_x, full_p),
+                               atol=1e-9)
+
+
+def test_clip_region_names_the_points_it_replaces():
+    x, z = np.linspace(0.0, 10.0, 11), np.full(11, 1.0)
+    lo, hi, new_x, new_z = clip_region(x, z, np.array([3.5, 6.5]), np.array([0.5, 0.5]))
+    assert (lo, hi) == (4, 7) and new_x[0] == 3.5 and new_x[-1] == 6.5 and np.all(new_z == 0.5)
+    assert clip_region(x, z, np.array([3.5, 6.5]), np.array([1.5, 1.5])) is None

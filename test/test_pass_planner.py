@@ -270,3 +270,46 @@ def test_process_variation_is_seeded_and_has_the_stated_spread():
     dull = variation.draw(MODEL, 3, np.random.default_rng(0))
     assert dull.process.specific_energy_j_mm3 == pytest.approx(MODEL.process.specific_energy_j_mm3 * 1.1**3)
     assert dull.process.disk_radius_mm == pytest.approx(MODEL.process.disk_radius_mm - 1.5)
+
+
+# -- planning made cheap (issue 39 item 1) ---------------------------------------------------------
+
+def test_the_incremental_kernel_simulates_the_pass_the_old_one_did():
+    """The incremental kernel (contact.LiveContour: the face searched only below the
+    contour's top, cuts written in a gap, collinear points dropped) against the old one
+    kept in contact_reference, on a rippled bead: the same force, angle and patch at every
+    step to 1e-6, the same volume to 1e-4, in fewer points. The final contours differ by a
+    few um at most: where the old truncation misplaced a crossing next to a cutter vertex
+    above the contour (test_contact), the new one is exact."""
+    from hex_control.grinding.contact_reference import contact_patch_reference
+
+    target = final_contour(BEAD, 0.3, MODEL.process.bead_width_mm)
+    new, old = (simulate_pass(BEAD, MODEL, HeightControl(MODEL, BEAD.x_mm, target.tip_mm, BEAD.x_mm[0]), 7.5,
+                              contact_search=search) for search in (None, contact_patch_reference))
+    for name in ("force_n", "angle_rad", "patch_area_mm2", "height_mm", "tip_z_mm"):
+        np.testing.assert_allclose(new.history[name], old.history[name], rtol=1e-6, atol=1e-9)
+    assert new.removed_mm3 == pytest.approx(old.removed_mm3, rel=1e-4)
+    grid = np.linspace(0.0, 80.0, 16001)
+    assert np.max(np.abs(new.final.height_at(grid) - old.final.height_at(grid))) < 0.01
+    assert new.final.x_mm.size < 0.6 * old.final.x_mm.size
+
+
+def test_a_warm_started_search_keeps_the_plans_word_in_fewer_simulations():
+    """A guarded pass planned again from where its search ended (PassSession hands each
+    search the last one's end): its first guess lands within the search's 2 % of F_max, so
+    it takes two simulations (the level top and that guess) instead of four, and it keeps
+    the plan's promises: force within F_max, the stated depth what its simulation removes
+    within 2 %, no less removed than the cold search's plan (within 2 %)."""
+    contour, process = BEADS["ripple"], MODEL.process
+    depth = float(process.cut_depth_mm(process.force_max_n, 39.5))
+    cold = plan_pass(contour, MODEL, depth, 39.5)
+    assert cold.simulations >= 3 and cold.warm_start.family == "capped"
+    warm = plan_pass(contour, MODEL, depth, 39.5, warm_start=cold.warm_start)
+    assert warm.simulations == 2
+    assert 0.98 * process.force_max_n <= np.max(warm.force_n) <= process.force_max_n
+    area = process.bead_width_mm * contour.length_mm
+    assert warm.simulation.removed_mm3 / area == pytest.approx(warm.planned_depth_mm, rel=0.02)
+    assert warm.planned_depth_mm == pytest.approx(cold.planned_depth_mm, rel=0.02)
+    # a start from another family is not taken
+    other = plan_pass(contour, MODEL, depth, 39.5, warm_start=dataclasses.replace(cold.warm_start, family="level"))
+    assert other.simulations == cold.simulations and other.planned_depth_mm == cold.planned_depth_mm

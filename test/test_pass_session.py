@@ -297,3 +297,23 @@ def test_a_finishing_pass_on_steep_rippled_ends_stays_on_the_parent_at_every_fee
     removed = WIDTH * (np.trapezoid(FINISHING.z_mm, FINISHING.x_mm) - np.trapezoid(plan.final.z_mm, plan.final.x_mm))
     assert removed / (WIDTH * FINISHING.length_mm) == pytest.approx(plan.planned_depth_mm, rel=0.02)
     assert 0 < verdict.planned.values["shape_raised_mm"] < 0.025
+
+
+def test_the_session_hands_each_search_the_last_ones_end_and_counts_planning_time():
+    """Issue 39: the pass planner's core starts each guarded search from the last one's end
+    (pass_plan.plan_pass's warm_start) and adds up the wall time spent planning (the node
+    publishes it in /diagnostics as planning_wall_s: in lock-step the sim clock stands still
+    meanwhile); the benchmark's baseline turns the warm start off."""
+    ripple = weld_bead(60.0, 1.0, 12.0, ripple_mm=0.15, seed=4)
+    depth = float(CONFIG.model.process.cut_depth_mm(CONFIG.model.process.force_max_n, 39.5))
+    for warm_start in (True, False):
+        session = PassSession(CONFIG, warm_start=warm_start)
+        first = _plan(session, _request(0, depth, 39.5), _scan(0, ripple))
+        assert not first.refused and first.planned.planning_s > 0
+        assert session.planning_s == pytest.approx(first.planned.planning_s)
+        assert (session.warm_start is not None) == warm_start
+        second = _plan(session, _request(1, depth, 39.5), _scan(1, ripple))
+        assert session.plans == 2 and session.planning_s > first.planned.planning_s
+        sims = (first.planned.plan.simulations, second.planned.plan.simulations)
+        assert sims[1] < sims[0] if warm_start else sims[1] == sims[0]
+        assert np.max(second.planned.plan.force_n) <= CONFIG.model.process.force_max_n

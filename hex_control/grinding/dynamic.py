@@ -53,7 +53,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hex_control.config import cell_configuration, cell_default
-from hex_control.grinding.contact import DiskPose, clip_below, contact_patch
+from hex_control.grinding.contact import DiskPose, LiveContour
+from hex_control.grinding.contact_reference import ReferenceContour
 from hex_control.grinding.contour import Contour
 from hex_control.grinding.model import GrindingProcess
 
@@ -263,24 +264,26 @@ class PassStepper:
 
     def __init__(self, contour: Contour, model: DiskModel, motion, dt_s: float, *, initial_angle_rad: float,
                  step_mm: float, swing_floor_s: float | None = None, truncate_in_stages: bool = False,
-                 contact_search=contact_patch):
+                 contact_search=None):
         self.model, self.motion, self.dt, self.step_mm = model, motion, dt_s, step_mm
-        self.truncate_in_stages, self.contact_search = truncate_in_stages, contact_search
-        self.x, self.z, self.parent = contour.x_mm, contour.z_mm, contour.parent_mm
+        self.truncate_in_stages = truncate_in_stages
+        # the incremental kernel (contact.LiveContour); a contact search given: the old
+        # whole-contour kernel with it (contact_reference, the benchmark's baseline)
+        self.work = LiveContour(contour) if contact_search is None else ReferenceContour(contour, contact_search)
         # out of contact the disk swings back no faster than the spring allows, nor within a step
         self.free_swing_s = max(model.free_swing_s, dt_s if swing_floor_s is None else swing_floor_s)
         self.time_s, self.angle_rad, self.integral = 0.0, initial_angle_rad, 0.0
 
     @property
     def contour(self) -> Contour:
-        return Contour(self.x, self.z, self.parent)
+        return self.work.contour
 
     def _pose(self, time_s, angle_rad, integral):
         return self.motion.pose(self.model, time_s, angle_rad, integral)
 
     def _rates(self, time_s, angle_rad, integral):
         s, pose = self._pose(time_s, angle_rad, integral)
-        patch = self.contact_search(self.x, self.z, pose)
+        patch = self.work.contact(pose)
         free_rate = s.free_offset_rad / self.free_swing_s
         if patch.length_mm == 0:
             rate = free_rate
@@ -296,8 +299,7 @@ class PassStepper:
         return rate, s, pose, patch
 
     def _truncate(self, cutter_x, cutter_z):
-        self.x, self.z, (self.parent,) = clip_below(self.x, self.z, np.array(cutter_x), np.array(cutter_z),
-                                                    (self.parent,))
+        self.work.clip(np.array(cutter_x), np.array(cutter_z))
 
     def evaluate(self):
         """(dtheta/dt, DriveState, DiskPose, ContactPatch) now."""
@@ -324,11 +326,12 @@ class PassStepper:
 
 def simulate_pass(contour: Contour, model: DiskModel, drive, feed_mm_s: float, start_tip_x_mm: float | None = None,
                   *, end_tip_x_mm: float | None = None, step_mm: float = 0.05,
-                  truncate_in_stages: bool = False, contact_search=contact_patch) -> PassSimulation:
+                  truncate_in_stages: bool = False, contact_search=None) -> PassSimulation:
     """Grind one pass at constant feed from the tip at ``start_tip_x_mm`` until the tip
     reaches ``end_tip_x_mm`` (the contour's ends by default), by RK4 at ``step_mm`` of feed
-    per step, truncating between steps. ``contact_search`` finds the patch (the benchmark
-    swaps in the naive whole-contour scan)."""
+    per step, truncating between steps. ``contact_search``: None for the incremental kernel
+    (:class:`contact.LiveContour`), or a search on the whole contour for the old kernel
+    (the benchmark's baselines: ``contact_reference``, the naive scan)."""
     start = contour.x_mm[0] if start_tip_x_mm is None else start_tip_x_mm
     end = contour.x_mm[-1] if end_tip_x_mm is None else end_tip_x_mm
     if not (math.isfinite(feed_mm_s) and feed_mm_s > 0 and step_mm > 0):

@@ -50,6 +50,7 @@ class PassPlan:
     simulation: PassSimulation  # the controlled pass (6.6): force, height, power histories
     reason: str  # why the depth was reduced ('' if it was not)
     simulations: int = 1  # dynamic simulations it took (more than one: the guard searched)
+    warm_start: SearchStart | None = None  # what the guard's search found, to start the next one from
 
     @property
     def time_s(self) -> np.ndarray:
@@ -78,9 +79,20 @@ class PassPlan:
                 "simulations": self.simulations}
 
 
+@dataclass(frozen=True)
+class SearchStart:
+    """Where the guard's search ended, as a warm start for the next pass's: the guard's
+    ``family`` ('level' or 'capped') and the found parameter over the first guess of the
+    search (the guess as if the peak load were proportional to the deepest local cut)."""
+
+    family: str
+    guess_scale: float
+
+
 def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float,
               control: str = "height", *, step_mm: float = 0.1, shape_mm=None, gains: tuple[float, float] | None = None,
-              depth_tolerance: float = 0.02, max_simulations: int = 12) -> PassPlan:
+              depth_tolerance: float = 0.02, max_simulations: int = 12, warm_start: SearchStart | None = None,
+              contact_search=None) -> PassPlan:
     """Plan one pass of mean cut depth ``cut_depth_mm`` at ``feed_mm_s`` on ``contour``.
     ``gains``: (G1, G2) of the controller chosen by ``control`` (its defaults if None).
 
@@ -96,6 +108,14 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
     the parameter, kept inside a bracket (bisection when it leaves it); the load is nearly
     affine in either, so two or three simulations do. At most ``max_simulations`` in all.
     A plan that removes less than asked says why in ``reason``.
+
+    ``warm_start`` (the last pass's ``PassPlan.warm_start``): when the search is in the same
+    family, its first guess is scaled as the last search's had to be (the load is not
+    proportional to the parameter: the zero-cut force, and N sinking as the cap falls), so
+    that on a job's like passes it lands within the tolerance at once: one or two
+    simulations fewer. The plan is still the search's, within ``depth_tolerance`` of the
+    limit; which point of that band it ends on depends on the start. ``contact_search``:
+    :func:`simulate_pass`'s (None: the incremental kernel).
     """
     if control not in CONTROLS:
         raise PlanningError(f"control must be one of {CONTROLS}, got {control!r}")
@@ -111,7 +131,7 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
     def simulate(target):
         controller = HeightControl if control == "height" else RelaxedAngleControl
         drive = controller(model, contour.x_mm, target.tip_mm, contour.x_mm[0], **controller.gain_keywords(gains))
-        simulation = simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm)
+        simulation = simulate_pass(contour, model, drive, feed_mm_s, step_mm=step_mm, contact_search=contact_search)
         load = max(simulation.peak_force_n / process.force_max_n, simulation.peak_power_w / limit_w)
         return (target, simulation), load
 
@@ -132,9 +152,13 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
     allowed = deepest * aim / load  # as if the peak load were proportional to the deepest cut
     shallower = positive_area(contour.x_mm, contour.z_mm - first.tip_mm - (deepest - allowed)) / length
     if shallower >= capped(allowed).removed_mm3 / (width * length):
-        make, upper, guess, how = level_top, cut_depth_mm, shallower, "a shallower level top"
+        make, upper, guess, how, family = level_top, cut_depth_mm, shallower, "a shallower level top", "level"
     else:
-        make, upper, guess, how = capped, deepest, allowed, "the local cut capped"
+        make, upper, guess, how, family = capped, deepest, allowed, "the local cut capped", "capped"
+    first_guess = guess
+    if warm_start is not None and warm_start.family == family and 0 < warm_start.guess_scale * guess < upper:
+        guess *= warm_start.guess_scale
+    best_parameter = math.nan
     low, high, best, best_load = 0.0, upper, None, math.nan  # the bracket of the edge
     last, previous = None, None  # (parameter, peak load) of the latest simulations in this family
     for simulations in range(2, max_simulations + 1):
@@ -149,7 +173,7 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
             middle = (low + high) / 2
         candidate, candidate_load = simulate(make(middle))
         if candidate_load <= 1:
-            low, best, best_load = middle, candidate, candidate_load
+            low, best, best_load, best_parameter = middle, candidate, candidate_load, middle
         else:
             high = middle
         previous, last = last, (middle, candidate_load)
@@ -161,15 +185,16 @@ def plan_pass(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s
                             f"{process.max_power_w:.0f} W)")
     target = best[0]
     planned = target.removed_mm3 / (width * length)
+    found = SearchStart(family, best_parameter / first_guess)
     if planned >= cut_depth_mm * (1 - 1e-6):
-        return _as_simulated(PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, *best, "", simulations),
+        return _as_simulated(PassPlan(cut_depth_mm, cut_depth_mm, feed_mm_s, *best, "", simulations, found),
                              width * length, depth_tolerance)
     if math.isfinite(target.max_cut_mm):
         how = f"the local cut capped at {target.max_cut_mm:.3f} mm"
     return _as_simulated(PassPlan(cut_depth_mm, planned, feed_mm_s, *best,
                                   _reduced_because(process, first_simulation, limit_w)
                                   + f"; with {how}, depth reduced from {cut_depth_mm:.3f} to {planned:.3f} mm",
-                                  simulations), width * length, depth_tolerance)
+                                  simulations, found), width * length, depth_tolerance)
 
 
 def _as_simulated(plan: PassPlan, area_mm2: float, tolerance: float) -> PassPlan:
@@ -196,7 +221,8 @@ def _reduced_because(process: GrindingProcess, first: PassSimulation, limit_w: f
     return f"force guard: the requested pass needs {force_n:.0f} N, more than F_max {process.force_max_n:g} N"
 
 
-def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.05) -> PassSimulation:
+def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: float = 0.05, *,
+                 contact_search=None) -> PassSimulation:
     """Grind ``contour`` under force control with the plan's force and height trajectories
     and the process ``model`` (which may differ from the one the plan assumed), at
     ``step_mm`` of feed per step or less: no step longer than a quarter of the force loop's
@@ -205,7 +231,7 @@ def execute_plan(contour: Contour, model: DiskModel, plan: PassPlan, step_mm: fl
     drive = ForceSchedule(model, plan.centre_x_mm, plan.height_mm, plan.force_n,
                           float(plan.simulation.history["angle_rad"][0]))
     step_mm = min(step_mm, plan.feed_mm_s * model.approach_time_constant_s / 4)
-    return simulate_pass(contour, model, drive, plan.feed_mm_s, step_mm=step_mm)
+    return simulate_pass(contour, model, drive, plan.feed_mm_s, step_mm=step_mm, contact_search=contact_search)
 
 
 # -- the static fallback (8.3 item 3) ------------------------------------------------------
@@ -293,20 +319,24 @@ class ForcePlan:
     simulations: int = 1  # dynamic simulations the plan took (the stall guard's search)
     tip_x_mm: np.ndarray | None = None
     tip_z_mm: np.ndarray | None = None
+    warm_start: SearchStart | None = None  # the guard's search's end (dynamic planner), for the next pass
 
 
 def plan_forces(contour: Contour, model: DiskModel, cut_depth_mm: float, feed_mm_s: float, planner: str = "dynamic",
                 *, control: str = "height", gains=None, step_mm: float = 0.1,
-                compliance: Compliance | None = None, shape_mm=None) -> ForcePlan:
+                compliance: Compliance | None = None, shape_mm=None, warm_start: SearchStart | None = None,
+                contact_search=None) -> ForcePlan:
     """The dynamic planner (6.6) or the static one (8.3 item 3; the tool holds the tip on
     the final contour at the relaxed angle). ``shape_mm``: the desired final shape under the
-    level top (the parent surface if None), as :func:`final_contour` takes it."""
+    level top (the parent surface if None), as :func:`final_contour` takes it;
+    ``warm_start``, ``contact_search``: :func:`plan_pass`'s."""
     if planner == "dynamic":
         plan = plan_pass(contour, model, cut_depth_mm, feed_mm_s, control, step_mm=step_mm, shape_mm=shape_mm,
-                         gains=gains)
+                         gains=gains, warm_start=warm_start, contact_search=contact_search)
         h = plan.simulation.history
         return ForcePlan(plan.time_s, plan.centre_x_mm, plan.height_mm, plan.force_n, plan.simulation.final,
-                         plan.planned_depth_mm, plan.reason, plan.simulations, h["tip_x_mm"], h["tip_z_mm"])
+                         plan.planned_depth_mm, plan.reason, plan.simulations, h["tip_x_mm"], h["tip_z_mm"],
+                         plan.warm_start)
     if planner != "static":
         raise PlanningError(f"planner must be 'dynamic' or 'static', got {planner!r}")
     plan = plan_pass_static(contour, model.process, compliance or Compliance.linear(model.spring_n_mm_rad),

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,7 +40,7 @@ from hex_control.grinding.coefficients import plausible_specific_energy
 from hex_control.grinding.config import PassPlannerConfig
 from hex_control.grinding.contour import Contour
 from hex_control.grinding.model import GrindingProcess
-from hex_control.grinding.pass_plan import ForcePlan, PlanningError, plan_forces
+from hex_control.grinding.pass_plan import ForcePlan, PlanningError, SearchStart, plan_forces
 from hex_control.grinding.tool_path import ToolPath, pass_tool_path
 
 PARENT_TOLERANCE_MM = 1e-3  # how far a plan's simulation may touch below the parent (numerical touch)
@@ -101,6 +102,7 @@ class PlannedPass:
     note: str
     values: dict
     safety: str = ""
+    planning_s: float = 0.0  # wall time the planning took (s; not in ``values``: the status stays deterministic)
 
 
 @dataclass(frozen=True)
@@ -174,8 +176,13 @@ class PassSession:
     its contour (and since when, s of a monotonic clock the caller keeps), the one being
     planned, the one whose path is being checked for reach, and the commands answered."""
 
-    def __init__(self, config: PassPlannerConfig, contour_wait_s: float = 5.0, check_reach: bool = False):
+    def __init__(self, config: PassPlannerConfig, contour_wait_s: float = 5.0, check_reach: bool = False, *,
+                 contact_search=None, warm_start: bool = True):
+        """``contact_search``, ``warm_start``: the pass planner's kernel and whether each
+        guarded search starts from the last one (``pass_plan.plan_pass``); the benchmark's
+        baseline passes the old kernel and no warm start."""
         self.config, self.contour_wait_s, self.check_reach = config, contour_wait_s, check_reach
+        self.contact_search, self.warm_starts = contact_search, warm_start
         self.scan: Scan | None = None
         self.pending: PassRequest | None = None
         self.pending_since = 0.0
@@ -183,6 +190,11 @@ class PassSession:
         self.checking: tuple[PassRequest, PlannedPass, float] | None = None  # (command, plan, since s)
         self.answered: set[tuple[str, int]] = set()
         self.stopped: set[tuple[str, int]] = set()  # stopped while being planned
+        # the last guarded search's end: the next search starts from it (pass_plan.plan_pass);
+        # written only in planned(), between plans, so the worker reads a settled value
+        self.warm_start: SearchStart | None = None
+        self.planning_s = 0.0  # wall time spent planning, all commands (s): the clock stands still meanwhile
+        self.plans = 0  # commands planned (plans and refusals)
 
     # -- inputs --------------------------------------------------------------------------
     def on_scan(self, scan: Scan) -> None:
@@ -253,10 +265,12 @@ class PassSession:
     def plan(self, request: PassRequest, scan: Scan) -> PlannedPass | Verdict:
         """Check the command against the scan, plan it and check the plan against the parent;
         a refusal (a Verdict) if any check fails."""
+        start = time.perf_counter()
         try:
-            return self._plan(request, scan)
+            planned = self._plan(request, scan)
         except (PlanningError, ValueError, FloatingPointError) as exc:
             return refusal(request, str(exc), "unplannable")
+        return dataclasses.replace(planned, planning_s=time.perf_counter() - start)
 
     def _plan(self, request: PassRequest, scan: Scan) -> PlannedPass:
         config = self.config
@@ -307,7 +321,7 @@ class PassSession:
         """The plan, and how far (mm) its desired shape had to be raised over the parent so
         that its simulation stays within PARENT_TOLERANCE_MM of it (a finishing pass whose
         controller overshoots at a bead end)."""
-        config, raised = self.config, 0.0
+        config, raised, warm_start = self.config, 0.0, self.warm_start
         for attempt in range(PARENT_RETRIES + 1):
             shape = None if raised == 0 else contour.parent_mm + raised
             if raised > 0:  # no more than what is left over the raised shape
@@ -316,7 +330,9 @@ class PassSession:
                     break
                 depth = min(depth, above)
             plan = plan_forces(contour, model, depth, feed, config.planner, control=config.control, gains=config.gains,
-                               step_mm=config.step_mm, compliance=config.compliance, shape_mm=shape)
+                               step_mm=config.step_mm, compliance=config.compliance, shape_mm=shape,
+                               warm_start=warm_start, contact_search=self.contact_search)
+            warm_start = plan.warm_start or warm_start
             dip, at = parent_dip(plan, contour)
             if dip <= PARENT_TOLERANCE_MM:
                 if raised > 0:
@@ -332,6 +348,11 @@ class PassSession:
         """The plan of the command being planned: a Verdict (planned or refused), or None
         while its path waits for the reachability check."""
         request, self.planning = self.planning, None
+        self.plans += 1
+        if isinstance(outcome, PlannedPass):
+            self.planning_s += outcome.planning_s
+            if self.warm_starts:
+                self.warm_start = outcome.plan.warm_start or self.warm_start
         if request.key in self.stopped:
             self.stopped.discard(request.key)
             return self._refuse(request, f"stopped: job {request.job_id!r} ended while pass {request.pass_index} "

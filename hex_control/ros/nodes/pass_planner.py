@@ -103,16 +103,15 @@ class PassPlannerNode(Node):
         self._try_plan()
 
     def _try_plan(self) -> None:
-        ready = self.core.next_to_plan()
-        if ready is not None:
+        if (ready := self.core.next_to_plan()) is not None:
             self.planning = in_background(self.core.plan, *ready)
 
     def _poll(self) -> None:
-        now = time.monotonic()
-        self._end(self.core.expired(now))
+        self._end(self.core.expired(now := time.monotonic()))
         if self.planning is not None and self.planning.done():
             future, self.planning = self.planning, None
             self._end(self.core.planned(future.result(), now))  # None: its path is checked first
+            self.diagnostics.set("planning_wall_s", f"{self.core.planning_s:.3f}")  # sim time stood still meanwhile
             self._try_plan()
         if self.core.checking is not None:
             self._check_reach()
@@ -179,9 +178,10 @@ class PassPlannerNode(Node):
         self.path_pub.publish(ifc.tool_path_message(ifc.time_msg(start_s), request.job_id, request.pass_index,
                                                 path.time_s[1] - path.time_s[0],
                                                 np.hstack([path.positions_mm, orientation])))
+        sims = f"{plan.simulations} simulation{'s' if plan.simulations > 1 else ''}"
         self.get_logger().info(f"pass {request.pass_index} of job {request.job_id!r} planned: "
-                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s "
-                               f"({plan.simulations} simulation{'s' if plan.simulations > 1 else ''})")
+                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s ({sims}, "
+                               f"{planned.planning_s:.2f} s wall)")
         self._status(request, DiagnosticStatus.WARN if planned.note else DiagnosticStatus.OK,
                      planned.note or "planned", planned.values)
 
