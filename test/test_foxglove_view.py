@@ -1,0 +1,68 @@
+"""What hexctl view makes of the cell's messages (hex_control.ros.app.foxglove_view), read back
+from an MCAP sink of its Foxglove context with the independent ``mcap`` reader: the pass table
+joins decision and result per pass, forces keep the sim-time stamps and turn NaN into null,
+the bead scene draws the contour on its parent."""
+
+import json
+import math
+
+import foxglove
+import pytest
+from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
+from mcap.reader import make_reader
+
+from hex_control.ros.app.foxglove_view import FoxgloveView
+from hex_control_msgs.msg import Contour, PassCommand, PassResult, PlantTelemetry
+
+
+def _decoder(schema):
+    descriptors = descriptor_pb2.FileDescriptorSet.FromString(schema.data)
+    pool = descriptor_pool.DescriptorPool()
+    for file in descriptors.file:
+        pool.Add(file)
+    return message_factory.GetMessageClass(pool.FindMessageTypeByName(schema.name))
+
+
+def test_the_views_channels_carry_the_pass_table_forces_and_bead(ros, tmp_path):
+    context = foxglove.Context()
+    path = tmp_path / "view.mcap"
+    writer = foxglove.open_mcap(path, context=context)
+    view = ros.add(FoxgloveView(context, "/cell4", context=ros.context))
+    assert view.get_namespace() == "/cell4"
+    view._on_telemetry(PlantTelemetry(strut_names=["strut_0"], time_s=[1.0, 1.005], measured_force_n=[20.5, math.nan],
+                                      true_force_n=[20.0, 21.0], strut_lengths_m=[2.5, 2.5]))
+    contour = Contour(job_id="j", pass_index=0, x_mm=[0.0, 30.0, 60.0], z_mm=[0.0, 1.0, 0.0],
+                      parent_mm=[0.5, 0.5, 0.5])
+    view._on_contour(contour)
+    view._on_command(PassCommand(job_id="j", pass_index=0, cut_depth_mm=0.3, specific_energy_j_mm3=10.0,
+                                 normal_force_n=60.0, feed_speed_mm_s=11.3, material_remaining_mm=0.868,
+                                 time_remaining_s=30.0, expected_penalty=0.0327))
+    view._on_command(PassCommand(job_id="j", pass_index=1, stop=True))  # a stop is no pass of its own
+    view._on_result(PassResult(job_id="j", pass_index=0, status=PassResult.COMPLETED, measured_cut_depth_mm=0.32,
+                               specific_energy_j_mm3=math.nan))
+    view._on_contour(Contour(job_id="j", pass_index=1, x_mm=[0.0, 30.0, 60.0], z_mm=[0.0, 0.7, 0.0]))
+    writer.close()
+
+    messages = {}
+    with open(path, "rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            messages.setdefault(channel.topic, []).append((schema, message))
+    forces = [json.loads(m.data) for _, m in messages["/plant/wrench"]]
+    assert [f["wrench"]["force"]["z"] for f in forces] == [20.5, None]  # NaN is no JSON number
+    assert [f["header"]["stamp"] for f in forces] == [{"sec": 1, "nanosec": 0}, {"sec": 1, "nanosec": 5_000_000}]
+    assert [m.log_time for _, m in messages["/plant/wrench"]] == [1_000_000_000, 1_005_000_000]
+    assert [json.loads(m.data)["wrench"]["force"]["z"] for _, m in messages["/plant/true_wrench"]] == [20.0, 21.0]
+
+    [row] = json.loads(messages["/pass_table"][-1][1].data)["rows"]
+    assert row == {"job": "j", "pass": 0, "X_mm": 0.868, "t_left_s": 30.0, "K1_J_mm3": 10.0, "cut_planned_mm": 0.3,
+                   "F_N": 60.0, "V_f_mm_s": 11.3, "J": 0.0327, "status": "completed", "cut_measured_mm": 0.32,
+                   "duration_s": 0.0, "mean_force_n": 0.0, "K1_measured_J_mm3": None, "burn": False, "stall": False}
+
+    schema, message = messages["/scene/bead"][-1]
+    [entity] = _decoder(schema).FromString(message.data).entities
+    contour_line, parent_line, first_line = entity.lines
+    assert entity.frame_id == "bead"
+    assert [(p.x, p.z) for p in contour_line.points] == [(0.0, 0.0), (0.03, pytest.approx(0.0007)), (0.06, 0.0)]
+    assert [p.z for p in parent_line.points] == [0.0, 0.0, 0.0]  # no parent given: flat
+    assert [p.z for p in first_line.points] == pytest.approx([0.0005, 0.0015, 0.0005])  # first scan, on its parent
+    assert json.loads(messages["/grinding/contour"][-1][1].data)["z_mm"] == [0.0, 0.7, 0.0]
