@@ -11,7 +11,7 @@ from hex_control.seeds.mobile_platform.case import PlatformCase
 from hex_control.seeds.mobile_platform.control import PlatformState, commanded_motion
 from hex_control.seeds.mobile_platform.model import appell_gibbs_accelerations, lagrange_accelerations
 from hex_control.seeds.mobile_platform.path import curvature, path_length
-from hex_control.seeds.mobile_platform.simulation import _rk4_step, simulate_platform
+from hex_control.seeds.mobile_platform.simulation import _rk4_step, simulate_platform, tracking_figures
 
 CASE = PlatformCase.from_yaml()
 MODEL = CASE.model
@@ -155,32 +155,57 @@ def test_the_whole_run_is_the_same_on_either_form_of_the_dynamics():
 
 @pytest.fixture(scope="module")
 def comparison():
-    from hex_control.seeds.mobile_platform.study import compare
-
-    return {key: figures for key, (_, figures, _) in compare(CASE).items()}
+    """Fig. 7's path, both plants, both controllers with the case's gains (tuned alike by
+    fair.py); Fig. 10's path and the seed's other conditions are in `hexctl bench
+    mobile_platform_fair` (docs/results/platform_fair_comparison.txt)."""
+    desired = CASE.desired()
+    runs = {}
+    for plant_name, plant in zip(("as modelled", "loaded"), CASE.tuning_plants):
+        for name, make in (("energy index", CASE.energy_controller), ("two PID", CASE.pid_controller)):
+            runs[(plant_name, name)] = tracking_figures(CASE.run(plant, make(), desired), desired)
+    return runs
 
 
 def test_fig_8_heading_error_small_and_vanishing_by_the_end(comparison):
-    for (path, plant, name), f in comparison.items():
-        assert f.max_heading_error_rad < 1e-3, (path, plant, name)
-        assert f.final_heading_error_rad < 0.3 * f.max_heading_error_rad, (path, plant, name)
+    for key, f in comparison.items():
+        assert f.max_heading_error_rad < 1e-3, key
+        assert f.final_heading_error_rad < 0.3 * f.max_heading_error_rad, key
 
 
-def test_fig_10_11_energy_index_against_two_pids_both_tuned_by_itae(comparison):
-    """Fig. 10-11. Both controllers are tuned by the same ITAE minimization, on the platform
-    as modelled and as loaded, seeing encoder odometry. The energy index keeps H nearer the
-    path on both paths and both plants, the Fig. 10 test path included, which neither was
-    tuned on: max and RMS path error below 0.85x the PIDs'. Final positions are within a few
-    um for both. Where the seed's claim does not carry over: on the loaded platform the
-    PIDs' integrators hold H nearer its scheduled position in time. Eq. 21 has no integral
-    action, so the unmodelled friction and payload leave it a lag. Neither asks the floor
-    for much friction (mu < 0.1): no slip risk for either."""
-    for path in ("Fig. 7 path", "Fig. 10 test path"):
-        for plant in ("as modelled", "loaded"):
-            energy, pid = comparison[(path, plant, "energy index")], comparison[(path, plant, "two PID")]
-            assert energy.max_path_error_m < 0.85 * pid.max_path_error_m, (path, plant)
-            assert energy.rms_path_error_m < 0.85 * pid.rms_path_error_m, (path, plant)
-            assert max(energy.final_position_error_m, pid.final_position_error_m) < 1e-5
-            assert max(energy.max_required_friction, pid.max_required_friction) < 0.1
-        loaded = (comparison[(path, "loaded", "energy index")], comparison[(path, "loaded", "two PID")])
-        assert loaded[1].max_position_error_m < loaded[0].max_position_error_m
+def test_fig_10_11_energy_index_against_two_pids_tuned_alike(comparison):
+    """Fig. 10-11, compared fairly: both controllers tuned by one optimizer on one criterion
+    (RMS path error over both plants) with one budget, seeing 5.2 um encoder counts. As
+    measured (statements of the ordering, each able to fail either way):
+    - as modelled the two tie at the encoders' resolution: RMS path error 2.5 vs 2.7 um,
+      within 25 % of each other and both under half a count;
+    - loaded (payload, gear friction the law's model lacks) the PIDs keep H nearer the path
+      on RMS (3.1 vs 3.8 um: 0.65-0.95x the law's) and the heading 3x better; the law keeps
+      the largest path error lower (10 vs 28 um: under 0.6x the PIDs');
+    - neither asks the floor for much friction (mu < 0.1), final positions within 10 um.
+    The seed's "much better" shows only where the tuning did not look: at twice v_A the law's
+    RMS path error is 4x lower (bench); with twice the friction the PIDs' is 2.5x lower."""
+    count_m = 2 * math.pi * MODEL.wheel_radius_m / CASE.encoder_counts_per_rev
+    assert count_m == pytest.approx(5.24e-6, rel=1e-2)
+    modelled = comparison[("as modelled", "energy index")], comparison[("as modelled", "two PID")]
+    loaded = comparison[("loaded", "energy index")], comparison[("loaded", "two PID")]
+    assert 0.8 < modelled[1].rms_path_error_m / modelled[0].rms_path_error_m < 1.25
+    assert max(f.rms_path_error_m for f in modelled) < 0.6 * count_m
+    assert 0.65 < loaded[1].rms_path_error_m / loaded[0].rms_path_error_m < 0.95
+    assert loaded[0].max_path_error_m < 0.6 * loaded[1].max_path_error_m
+    assert loaded[1].max_heading_error_rad < 0.5 * loaded[0].max_heading_error_rad
+    for f in comparison.values():
+        assert f.max_required_friction < 0.1 and f.final_position_error_m < 1e-5
+
+
+def test_energy_index_law_sweep_has_an_instability_near_its_tuned_gain():
+    """The law's gain q1/r and eq. 19's k swept (bench): at q1/r = 1000, 2.7x the tuned gain,
+    k <= 1 gives millimetre errors; the tuned point (364, 0.57) keeps H within micrometres.
+    Checked here at the two ends, on the platform as modelled."""
+    desired = CASE.desired()
+
+    def rms(gain, k):
+        return tracking_figures(CASE.run(MODEL, CASE.energy_controller(gain, k), desired, with_friction=False),
+                                desired).rms_path_error_m
+
+    assert rms(1000.0, 0.74) > 1e-4
+    assert rms(CASE.energy_index["gain"], CASE.energy_index["k"]) < 5e-6
