@@ -6,7 +6,7 @@ from pathlib import Path
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 
-from hex_control.config import node_parameters
+from hex_control.config import config_file, node_parameters
 from hex_control.ros.app.graph import NodeGraph, graph_nodes
 from ros_harness import wait_until
 
@@ -140,3 +140,19 @@ def test_every_command_input_of_the_graph_names_its_source_relative_to_the_cell(
     assert unnamed == HAND_INPUTS, owners
     absolute = {key: value for key, value in owners.items() if str(value).strip().startswith("/")}
     assert not absolute, absolute
+
+
+def test_the_robot_state_node_describes_the_machine_the_plant_runs():
+    """Issue 40 item 1: robot_state is in every graph, in the cell, with the plant's machine
+    file and bead frame, so its frames are the plant's."""
+    machine = str(config_file("machines/pru3_feed.yaml"))
+    for namespace in ("", "/cell5"):
+        specs = {spec.name: spec for spec in graph_nodes(Path("/tmp/jobs"), machine_file=machine,
+                                                         namespace=namespace)}
+        robot, plant = effective_parameters(specs["robot_state"]), effective_parameters(specs["plant"])
+        assert robot["machine_file"] == plant["machine_file"] == machine
+        assert robot["pass_planner_config"] == plant["pass_planner_config"]
+        assert _remaps(specs["robot_state"], "__ns") == ([namespace] if namespace else [])
+    default = effective_parameters({s.name: s for s in graph_nodes(Path("/tmp/jobs"))}["robot_state"])
+    assert default["machine_file"] == effective_parameters(
+        {s.name: s for s in graph_nodes(Path("/tmp/jobs"))}["plant"])["machine_file"]
