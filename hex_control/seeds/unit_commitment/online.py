@@ -146,10 +146,13 @@ class OnlineScheduler:
     demand (:func:`fluctuation_scenarios`, seeded by ``seed``)."""
 
     def __init__(self, fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
-                 *, predictor: OneStepPredictor, scenarios: int = 24, seed: int = 0):
+                 *, predictor: OneStepPredictor, scenarios: int = 24, seed: int = 0, last_fluctuation: bool = False):
         if scenarios < 1:
             raise ValueError(f"need at least one scenario, got {scenarios}")
         self.fleet, self.table, self.plan, self.storage, self.predictor = fleet, table, plan, storage, predictor
+        # the paper's random model (section 6, Fig. 4): the next hour's fluctuation taken as
+        # the last one measured instead of the predictor's estimate
+        self.last_fluctuation, self.last_measured = last_fluctuation, None
         self.scenarios, self.rng = scenarios, np.random.default_rng(seed)
         self.down = tuple(0 for _ in fleet.units)  # every unit's hours down
         self.stored_mwh = storage.s_start_mwh
@@ -306,6 +309,8 @@ class OnlineScheduler:
         unplanned = 0
         for t in range(hours):
             expected = self.predictor.prediction - self.predictor.mean
+            if self.last_fluctuation:
+                expected = 0.0 if self.last_measured is None else self.last_measured - self.predictor.mean
             predicted = mean[t:] * (1 + self.predictor.mean + expected * a ** np.arange(hours - t))
             predicted = np.concatenate([mean[:t], predicted])
             previous = commitments[-1] if commitments else (True,) * len(self.fleet)
@@ -325,6 +330,7 @@ class OnlineScheduler:
             transfers[t] = r
             self.stored_mwh += r
             self.predictor.step(float(measurement[t]))
+            self.last_measured = float(measurement[t])
         left_in_store = self.stored_mwh - self.storage.s_start_mwh
         lam = float(np.mean(incremental_costs(self.fleet, commitments, demand + transfers)))
         self.stored_mwh = self.storage.s_start_mwh  # settled
@@ -357,18 +363,20 @@ class OnlineComparison:
     over_hindsight: np.ndarray
     unplanned_hours: int
     identified: GaussMarkovModel
+    energy_deviation: np.ndarray  # per day, (served - mean day's) / mean day's energy: a control variate, mean 0
 
 
 def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: Storage,
                    fluctuation: LoadFluctuation, *, days: int, rng: np.random.Generator, history_days: int = 80,
-                   progress=None) -> OnlineComparison:
+                   progress=None, last_fluctuation: bool = False) -> OnlineComparison:
     """``days`` consecutive days of demand (one fluctuation process), each scheduled on-line;
-    ``progress(day, days)`` after each."""
+    ``progress(day, days)`` after each; ``last_fluctuation``: the paper's random model's
+    prediction (:class:`OnlineScheduler`)."""
     predictor, found = identified_predictor(fluctuation, history_days * plan.demand_mw.size, rng)
-    scheduler = OnlineScheduler(fleet, table, plan, storage, predictor=predictor)
+    scheduler = OnlineScheduler(fleet, table, plan, storage, predictor=predictor, last_fluctuation=last_fluctuation)
     hours = plan.demand_mw.size
     fluctuations, measurements = fluctuation.draw(days * hours, rng)
-    over_plan, over_hindsight, unplanned = [], [], 0
+    over_plan, over_hindsight, unplanned, deviation = [], [], 0, []
     for day in range(days):
         hourly = slice(day * hours, (day + 1) * hours)
         result = scheduler.run_day(fluctuations[hourly], measurements[hourly])
@@ -376,6 +384,8 @@ def compare_online(fleet: Fleet, table: list[TableRow], plan: DayPlan, storage: 
         over_plan.append(result.unit_cost / plan.unit_cost - 1)
         over_hindsight.append(result.unit_cost / hindsight.unit_cost - 1)
         unplanned += result.unplanned
+        deviation.append(float(result.demand_mw.sum() / plan.demand_mw.sum() - 1))
         if progress:
             progress(day + 1, days)
-    return OnlineComparison(fluctuation, np.array(over_plan), np.array(over_hindsight), unplanned, found.model)
+    return OnlineComparison(fluctuation, np.array(over_plan), np.array(over_hindsight), unplanned, found.model,
+                            np.array(deviation))

@@ -104,11 +104,10 @@ def running_cost(fleet: Fleet, on: tuple[bool, ...], total_mw: float) -> float:
     return float(running_costs(fleet, [on], [total_mw])[0])
 
 
-def running_costs_near(fleet: Fleet, on, total_mw: float, lowest_mw: float, highest_mw: float,
-                       *, energy_price: float) -> np.ndarray:
+def running_costs_near(fleet: Fleet, on, total_mw, lowest_mw, highest_mw, *, energy_price: float) -> np.ndarray:
     """:func:`running_costs` of each commitment of ``on`` (N, M) at the total nearest
-    ``total_mw`` within [lowest, highest] that it can generate, plus the difference at
-    ``energy_price``; inf where none."""
+    ``total_mw`` within [lowest, highest] (each one value or N) that it can generate, plus
+    the difference at ``energy_price``; inf where none."""
     on = np.atleast_2d(np.asarray(on, bool))
     low, high = committed_bounds(fleet.arrays, on)
     low, high = np.maximum(lowest_mw, low), np.minimum(highest_mw, high)
@@ -146,15 +145,23 @@ def search_commitments(fleet: Fleet, generation_mw, options, down: tuple[int, ..
     states = np.minimum(np.asarray(down, int), caps)[None, :]  # (S, M) hours down, capped
     totals, starting = np.zeros(1), np.zeros(1)  # of the cheapest day into each state
     history = []  # per hour: (each new state's parent state, its commitment)
-    for t, total in enumerate(generation_mw):
-        lowest, highest = (total, total) if reach_mw is None else (reach_mw[0][t], reach_mw[1][t])
-        hour_options = list(options(t))
-        prices = running_costs_near(fleet, hour_options, float(total), lowest, highest,
-                                    energy_price=energy_price) if hour_options else np.zeros(0)
-        usable = np.isfinite(prices)
+    # every hour's options priced at once (one dispatch for the day)
+    generation = np.asarray(generation_mw, float)
+    hours = generation.size
+    lowest, highest = (generation, generation) if reach_mw is None else (np.asarray(reach_mw[0], float),
+                                                                         np.asarray(reach_mw[1], float))
+    per_hour = [list(options(t)) for t in range(hours)]
+    rows = np.repeat(np.arange(hours), [len(o) for o in per_hour])
+    every = np.asarray([on for o in per_hour for on in o], bool).reshape(rows.size, arrays.size)
+    prices = running_costs_near(fleet, every, generation[rows], lowest[rows], highest[rows],
+                                energy_price=energy_price)
+    ends = np.cumsum([len(o) for o in per_hour])
+    for t in range(hours):
+        hour_prices, hour_on = prices[ends[t] - len(per_hour[t]):ends[t]], every[ends[t] - len(per_hour[t]):ends[t]]
+        usable = np.isfinite(hour_prices)
         if not usable.any():
-            raise ValueError(f"no commitment generates {total} MW in hour {t}")
-        on, costs = np.asarray(hour_options, bool)[usable], prices[usable]
+            raise ValueError(f"no commitment generates {generation[t]} MW in hour {t}")
+        on, costs = hour_on[usable], hour_prices[usable]
         count, choices = len(states), len(on)
         # of identical units, those down the shortest are on (then the first): a unit's rank
         # among its twins by (hours down, index) against how many of them the option has on
