@@ -191,6 +191,21 @@ def test_the_start_expectation_of_a_guarded_bead_predicts_the_charge_it_realizes
     assert 1 / 1.5 <= new_realized / new_j <= 1.5
 
 
+def test_a_goal_with_its_profile_is_planned_the_same_whether_the_scan_came_first_or_not(tmp_path):
+    """The demo sends the plant's scan in the goal; under load the planner may not have had the
+    scan yet: the force the plans reach is estimated from the goal's profile all the same."""
+    bead = weld_bead(150.0, 1.2, 12.0, ripple_mm=0.05, seed=0)
+    forces = []
+    for scanned in (False, True):
+        core = Sequencer(SequencerSettings(tmp_path / str(scanned) / "jobs"), CONFIG)
+        if scanned:
+            core.on_scan("", 0, bead.x_mm, bead.z_mm, parent_mm=bead.parent_mm, width_mm=12.5, stamp_ns=0, now_s=0.0)
+        out = core.accept(GoalRequest("job", tuple(bead.x_mm), tuple(bead.z_mm), tuple(bead.parent_mm), 12.5,
+                                      deadline_s=60.0, process_yaml="reset_time_s: 4.71"), "goal", 0.0)
+        forces.append(out.solve.process.force_max_n)
+    assert forces[0] == forces[1] and 45.0 < forces[0] < 53.0
+
+
 def test_a_scan_of_many_points_is_estimated_on_a_coarse_copy_of_it():
     fine = weld_bead(150.0, 1.2, 12.0, spacing_mm=0.0015, ripple_mm=0.05, seed=0)  # 10^5 points
     profile = Profile(fine.x_mm, fine.z_mm, fine.parent_mm)

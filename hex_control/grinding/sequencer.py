@@ -251,6 +251,7 @@ class Sequencer:
         _, self.charges, self.grid, self.cut_model = parse_planner_config(planner_config)
         self._profile: tuple | None = None  # (job id, passes, Profile) of the plant's latest scan
         self._machine_force_n = math.nan  # the configured F_max of the job being started (N)
+        self._goal_profile: Profile | None = None  # the running goal's bead, if the goal gave its profile
         self.health = health if health is not None else MemoryHealth()
         self.log = log or (lambda level, text: None)
         self.predictor_heard = predictor_heard
@@ -388,13 +389,18 @@ class Sequencer:
         self.token = token
         self._advance_after_solve = True
         self._machine_force_n = process.force_max_n
+        # the goal's own profile (the demo sends the plant's scan), else the plant's scan before
+        # any pass: a goal with its profile is decided the same whether or not the scan came first
+        self._goal_profile = Profile(request.x_mm, request.z_mm, request.parent_mm) if request.x_mm else None
         self._request_solve(out, "start", goal, self._with_prior_force(goal, process), token)
         return out
 
     def _with_prior_force(self, goal: JobGoal, process):
         """The process with F_max lowered to the force the pass planner's guard lets its plans
-        reach on the scanned bead (``measured_part.prior_force_limit_n``; no scan: unchanged)."""
-        profile = self._profile[2] if self._profile is not None and self._profile[1] == 0 else None
+        reach on the bead (``measured_part.prior_force_limit_n``; no profile: unchanged)."""
+        profile = self._goal_profile
+        if profile is None and self._profile is not None and self._profile[1] == 0:
+            profile = self._profile[2]
         if profile is None:
             return process
         sized = dataclasses.replace(process, bead_width_mm=goal.bead_width_mm, bead_length_mm=goal.bead_length_mm)
@@ -431,6 +437,7 @@ class Sequencer:
             return out
         goal = read_goal(logs[-1])
         process, self.charges = self._configured(goal.config_overrides)
+        self._goal_profile = None
         self.model_update = PassModelUpdate(process, self.settings.resolve_threshold)
         if model := read_model(logs[-1]):  # plan with the estimates the job had before the restart
             self.model_update.restore(model["specific_energy_j_mm3"], model["solved_with_j_mm3"],
@@ -489,6 +496,8 @@ class Sequencer:
 
     def _profile_now(self) -> Profile | None:
         """The plant's scan of the job's part as it now is (after the passes applied), if here."""
+        if self.job.state.passes == 0 and self._goal_profile is not None:
+            return self._goal_profile
         if self._profile is None:
             return None
         job_id, passes, profile = self._profile
