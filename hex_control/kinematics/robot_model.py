@@ -36,7 +36,7 @@ from hex_control.kinematics import pru3
 from hex_control.kinematics.machine_kind import MachineKind
 from hex_control.kinematics.pru3 import Pru3Geometry
 from hex_control.kinematics.rotation import rotation_matrix
-from hex_control.kinematics.stewart import StewartGeometry, forward_kinematics
+from hex_control.kinematics.stewart import StewartGeometry, TrackingForwardKinematics
 
 MM = 1e-3  # m per mm
 FK_TOLERANCE_MM = 1e-10  # forward kinematics to well below the 1e-6 mm the frames promise
@@ -70,10 +70,40 @@ class RobotState:
     disk_mm: np.ndarray  # (3,)
 
 
+def _quaternion(r: np.ndarray) -> tuple[float, float, float, float]:
+    """Unit quaternion (x, y, z, w) of a rotation matrix (Shepperd's method, scalar code: a
+    node converts some twenty of them per sample)."""
+    (m00, m01, m02), (m10, m11, m12), (m20, m21, m22) = r.tolist()
+    trace = m00 + m11 + m22
+    if trace > 0:
+        s = 2.0 * math.sqrt(1.0 + trace)
+        q = ((m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s, 0.25 * s)
+    elif m00 > m11 and m00 > m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        q = (0.25 * s, (m01 + m10) / s, (m02 + m20) / s, (m21 - m12) / s)
+    elif m11 > m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        q = ((m01 + m10) / s, 0.25 * s, (m12 + m21) / s, (m02 - m20) / s)
+    else:
+        s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+        q = ((m02 + m20) / s, (m12 + m21) / s, 0.25 * s, (m10 - m01) / s)
+    norm = math.sqrt(sum(v * v for v in q))
+    return tuple(v / norm for v in q)
+
+
+def _axis_rotation(axis: int, angle: float) -> np.ndarray:
+    """The rotation by ``angle`` (rad) about x (0), y (1) or z (2)."""
+    c, s = math.cos(angle), math.sin(angle)
+    if axis == 0:
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    if axis == 1:
+        return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 def _transform(parent: str, child: str, translation_mm, rotation: np.ndarray | None = None) -> FrameTransform:
-    quaternion = (0.0, 0.0, 0.0, 1.0) if rotation is None else tuple(Rotation.from_matrix(rotation).as_quat())
-    return FrameTransform(parent, child, tuple(float(v) * MM for v in translation_mm),
-                          tuple(float(v) for v in quaternion))
+    quaternion = (0.0, 0.0, 0.0, 1.0) if rotation is None else _quaternion(rotation)
+    return FrameTransform(parent, child, tuple(float(v) * MM for v in translation_mm), quaternion)
 
 
 def frame_pose(transforms: list[FrameTransform], frame: str, root: str = "base") -> np.ndarray:
@@ -153,7 +183,7 @@ def _rpy(rotation: np.ndarray) -> tuple[float, float, float]:
 def _z_towards(direction) -> np.ndarray:
     """A rotation whose z axis is ``direction`` (a unit vector), R = Rx(a) Ry(b)."""
     a, b = _cardan_angles(direction)
-    return rotation_matrix(a, 0.0, 0.0) @ rotation_matrix(0.0, b, 0.0)
+    return _axis_rotation(0, a) @ _axis_rotation(1, b)
 
 
 def _cardan_angles(direction) -> tuple[float, float]:
@@ -261,6 +291,7 @@ class HexapodModel(RobotModel):
     def __init__(self, machine: StewartGeometry, bead_frame, **kwargs):
         super().__init__(machine, bead_frame, **kwargs)
         self.size_mm = float(np.linalg.norm(machine.platform_joints_mm[:, :2], axis=1).max())
+        self._tracker = TrackingForwardKinematics(machine, tolerance_mm=FK_TOLERANCE_MM, max_iterations=6)
         home = machine.home_pose
         struts = home[:3] + (rotation_matrix(*home[3:]) @ machine.joints_from_tool_mm.T).T - machine.base_joints_mm
         self._nominal = [_z_towards(s / np.linalg.norm(s)) for s in struts]
@@ -290,7 +321,7 @@ class HexapodModel(RobotModel):
 
     def _solve(self, positions_mm):
         m = self.machine
-        pose, _, _ = forward_kinematics(m, positions_mm, self._pose, FK_TOLERANCE_MM)
+        pose = self._tracker.solve(positions_mm)  # Newton from the last pose; raises ForwardKinematicsError
         rotation = rotation_matrix(*pose[3:])
         platform_origin = pose[:3] - rotation @ m.tool_offset_mm
         tops = platform_origin + (rotation @ m.platform_joints_mm.T).T
@@ -303,9 +334,8 @@ class HexapodModel(RobotModel):
             names += [f"strut_{i}_base_x", f"strut_{i}_base_y", f"strut_{i}"]
             values += [a, b, length * MM]
             transforms += [_transform("base", f"strut_{i}_cardan", base_joint,
-                                      self._nominal[i] @ rotation_matrix(a, 0.0, 0.0)),
-                           _transform(f"strut_{i}_cardan", f"strut_{i}_tube", (0, 0, 0),
-                                      rotation_matrix(0.0, b, 0.0)),
+                                      self._nominal[i] @ _axis_rotation(0, a)),
+                           _transform(f"strut_{i}_cardan", f"strut_{i}_tube", (0, 0, 0), _axis_rotation(1, b)),
                            _transform(f"strut_{i}_tube", f"strut_{i}_rod", (0, 0, length))]
         transforms.append(_transform("base", "platform", platform_origin, rotation))
         return pose, names, values, transforms
@@ -364,13 +394,12 @@ class Pru3Model(RobotModel):
             transforms.append(_transform("base", "head", (feed, 0.0, 0.0)))
         for i, (rail, angle, top) in enumerate(zip(m.rails_mm, m.rail_angles_rad, tops)):
             slider = float(positions_mm[i])
-            reach = rotation_matrix(0.0, 0.0, -angle) @ (top - rail - (0.0, 0.0, slider))  # in the carriage frame
+            reach = _axis_rotation(2, -angle) @ (top - rail - (0.0, 0.0, slider))  # in the carriage frame
             tilt = math.atan2(reach[0], reach[2])
             names += [f"strut_{i}", f"rocker_{i}"]
             values += [slider * MM, tilt]
-            transforms += [_transform("head", f"carriage_{i}", rail + (0.0, 0.0, slider),
-                                      rotation_matrix(0.0, 0.0, angle)),
-                           _transform(f"carriage_{i}", f"rocker_{i}", (0, 0, 0), rotation_matrix(0.0, tilt, 0.0))]
+            transforms += [_transform("head", f"carriage_{i}", rail + (0.0, 0.0, slider), _axis_rotation(2, angle)),
+                           _transform(f"carriage_{i}", f"rocker_{i}", (0, 0, 0), _axis_rotation(1, tilt))]
         rotation = rotation_matrix(*full[3:])
         transforms.append(_transform("head", "platform", full[:3], rotation))
         pose = full.copy()
