@@ -31,13 +31,14 @@ def compare(case: PlatformCase, progress=None) -> dict:
 
 
 def figures_table(runs: dict) -> str:
-    lines = [f"{'path':18s} {'plant':12s} {'controller':13s} {'max |H-H_bar| mm':>16s} {'path err max/RMS mm':>19s} "
-             f"{'final mm':>8s} {'heading max/final mrad':>22s} {'friction':>8s}"]
+    """um and mrad: the errors are a few encoder counts (5.2 um of wheel arc each)."""
+    lines = [f"{'path':18s} {'plant':12s} {'controller':13s} {'max |H-H_bar| um':>16s} {'path err max/RMS um':>19s} "
+             f"{'final um':>8s} {'heading max/final mrad':>22s} {'friction':>8s}"]
     for (path, plant, name), (_, f, _) in runs.items():
-        lines.append(f"{path:18s} {plant:12s} {name:13s} {1e3 * f.max_position_error_m:16.3f} "
-                     f"{1e3 * f.max_path_error_m:9.3f} / {1e3 * f.rms_path_error_m:7.3f} "
-                     f"{1e3 * f.final_position_error_m:8.3f} {1e3 * f.max_heading_error_rad:10.2f} / "
-                     f"{1e3 * f.final_heading_error_rad:9.3f} {f.max_required_friction:8.3f}")
+        lines.append(f"{path:18s} {plant:12s} {name:13s} {1e6 * f.max_position_error_m:16.1f} "
+                     f"{1e6 * f.max_path_error_m:9.1f} / {1e6 * f.rms_path_error_m:7.2f} "
+                     f"{1e6 * f.final_position_error_m:8.1f} {1e3 * f.max_heading_error_rad:10.3f} / "
+                     f"{1e3 * f.final_heading_error_rad:9.4f} {f.max_required_friction:8.3f}")
     return "\n".join(lines)
 
 
