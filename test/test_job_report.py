@@ -107,6 +107,11 @@ def test_the_finished_parts_are_judged_by_their_worst_points_not_their_mean():
     assert stats["parts_gouged_beyond_tolerance"] == 1
     assert stats["gouge_mm"] == {"mean": pytest.approx(0.235), "worst": 0.45}
     assert stats["highest_mm"]["worst"] == 0.2
+    # issue 42: a part outside the band with time for the fastest pass left (300/75 + 2 s) is counted
+    goal = {"bead_length_mm": 300.0, "reset_time_s": 2.0}
+    late = {**summaries[1], "goal": goal, "outcome": {**summaries[1]["outcome"], "time_remaining_s": 6.5}}
+    early = {**summaries[1], "goal": goal, "outcome": {**summaries[1]["outcome"], "time_remaining_s": 5.5}}
+    assert job_statistics([late, early, summaries[0]], 0.025)["parts_outside_with_a_pass_left"] == 1
 
 
 def test_the_last_scan_is_the_part_and_a_refused_pass_has_none(tmp_path):

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
+from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.part_quality import TOLERANCE_MM
 from hex_control.grinding.plots import plot_policy_map
 from hex_control.plotting import plt, save
@@ -252,7 +253,7 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             "charge_minus_expected_in_standard_errors": float((charges.mean() - expected.mean()) / se)
             if se and se > 0 else math.nan,
             "jobs_charged": int(np.sum(charges > 0)),
-            **_part_statistics([s.get("part_quality") for s in summaries]),
+            **_part_statistics([s.get("part_quality") for s in summaries], summaries),
             **_plan_error([p for s in summaries for p in s.get("passes", [])]),
             "jobs_with_passes_out_of_order": int(sum(not s.get("passes_in_order", True) for s in summaries)),
             "jobs_with_passes_not_as_planned": int(sum(bool(s.get("passes_not_as_planned")) for s in summaries)),
@@ -261,7 +262,7 @@ def job_statistics(summaries: list[dict], tolerance_mm: float) -> dict:
             "planner_restarts": int(sum(s.get("planner_restarts", 0) for s in summaries))}
 
 
-def _part_statistics(qualities: list) -> dict:
+def _part_statistics(qualities: list, summaries: list) -> dict:
     """Mean and worst of the finished parts' local figures (mm), over the jobs that have them,
     and how many parts lie inside the buyer's band."""
     scanned = [q for q in qualities if q]
@@ -274,7 +275,19 @@ def _part_statistics(qualities: list) -> dict:
             "highest_mm": figure("highest_mm", max), "rms_mm": figure("rms_mm", max),
             "max_deviation_mm": figure("max_deviation_mm", max),
             "parts_gouged_beyond_tolerance": int(sum(q["gouge_mm"] > TOLERANCE_MM for q in scanned)),
-            "parts_within_tolerance": int(sum(q["max_deviation_mm"] <= TOLERANCE_MM for q in scanned))}
+            "parts_within_tolerance": int(sum(q["max_deviation_mm"] <= TOLERANCE_MM for q in scanned)),
+            "parts_outside_with_a_pass_left": int(sum(_pass_left(s) for s in summaries
+                                                      if s.get("part_quality") and
+                                                      s["part_quality"]["max_deviation_mm"] > TOLERANCE_MM))}
+
+
+def _pass_left(summary: dict) -> bool:
+    """Whether the job ended with time for its fastest pass (L / feed_max + t_R, s) left (issue 42:
+    no such job may end outside the band)."""
+    goal, t = summary.get("goal") or {}, summary["outcome"].get("time_remaining_s", 0.0)
+    if not goal.get("bead_length_mm") or goal.get("reset_time_s") is None:
+        return False
+    return t >= goal["bead_length_mm"] / GrindingProcess().feed_max_mm_s + goal["reset_time_s"]
 
 
 def _plan_error(passes: list) -> dict:
