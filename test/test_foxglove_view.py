@@ -66,3 +66,16 @@ def test_the_views_channels_carry_the_pass_table_forces_and_bead(ros, tmp_path):
     assert [p.z for p in parent_line.points] == [0.0, 0.0, 0.0]  # no parent given: flat
     assert [p.z for p in first_line.points] == pytest.approx([0.0005, 0.0015, 0.0005])  # first scan, on its parent
     assert json.loads(messages["/grinding/contour"][-1][1].data)["z_mm"] == [0.0, 0.7, 0.0]
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--port", "70000"], "--port must be 0..65535"),
+    (["--host", "nonsense.invalid"], "cannot serve on nonsense.invalid:8765"),
+    (["--namespace", "not a name"], "namespace"),
+])
+def test_bad_view_options_are_one_line_and_exit_2(capsys, arguments, message):
+    from hex_control.cli import main
+
+    assert main(["view", *arguments]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err

@@ -246,7 +246,10 @@ def serve(host: str = "127.0.0.1", port: int = 8765, namespace: str = "", *, rea
     """Serve the cell in this process's ROS domain until Ctrl-C (or for ``duration_s`` > 0 of
     wall time); ``ready(port)`` is called once the server listens (port 0: a free one)."""
     context = foxglove.Context()
-    server = foxglove.start_server(name="hex_control", host=host, port=port, context=context)
+    try:
+        server = foxglove.start_server(name="hex_control", host=host, port=port, context=context)
+    except RuntimeError as error:  # an address that does not resolve, a port in use: the user's input
+        raise ValueError(f"cannot serve on {host}:{port}: {error}") from None
     rclpy_context = rclpy.Context()
     rclpy.init(context=rclpy_context)
     executor = SingleThreadedExecutor(context=rclpy_context)
