@@ -7,8 +7,8 @@ S_min..S_max (2.4, here a constraint instead of the paper's clipping).
 
 "As flat as possible" is min sum G(t)^2 for the fixed sum of G. Without the store's bounds
 it is water-filling: G(t) = clip(c, L + R_min, L + R_max) with the level c that makes
-sum r = 0, found exactly by bisection; with them the same convex quadratic program is
-solved by scipy's interior-point trust-constr.
+sum r = 0, found exactly by bisection; with them it is the cheapest transfers of one unit
+costing G^2 (:func:`~.transfers.cheapest_transfers`, exact).
 
 Units: MW (per hour: MWh a step), MWh.
 """
@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import Bounds, LinearConstraint, minimize
 
 
 @dataclass(frozen=True)
@@ -66,18 +65,10 @@ def flatten(demand_mw, storage: Storage, transfer_total_mwh: float = 0.0) -> np.
     stored = storage.stored_mwh(start)
     if np.all((stored >= storage.s_min_mwh - 1e-9) & (stored <= storage.s_max_mwh + 1e-9)):
         return start  # the store's bounds do not bind
-    lower_triangle = np.tril(np.ones((n, n)))  # S(t) - S(0) = sum of r up to t
-    constraints = [LinearConstraint(np.ones((1, n)), transfer_total_mwh, transfer_total_mwh),
-                   LinearConstraint(lower_triangle, storage.s_min_mwh - storage.s_start_mwh,
-                                    storage.s_max_mwh - storage.s_start_mwh)]
-    # with sum r fixed, sum G^2 differs from sum ((G - mean L) / scale)^2 by constants: the same
-    # minimum, on numbers of order one
-    mean, scale = demand.mean(), max(float(np.ptp(demand)), 1.0)
-    result = minimize(lambda r: float(np.sum(((demand + r - mean) / scale) ** 2)), np.zeros(n),
-                      jac=lambda r: 2 * (demand + r - mean) / scale**2, hess=lambda r: np.eye(n) * 2 / scale**2,
-                      method="trust-constr", constraints=constraints,
-                      bounds=Bounds(np.full(n, storage.r_min_mw), np.full(n, storage.r_max_mw)),
-                      options={"gtol": 1e-10, "xtol": 1e-12, "maxiter": 5000})
-    if not result.success:
-        raise ValueError(f"no storage schedule within the limits: {result.message}")
-    return result.x
+    # sum G^2 is the running cost of one unit with CG = G^2 on all day: its cheapest transfers
+    # within the store's bounds are this problem's exact solution (transfers.py)
+    from hex_control.seeds.unit_commitment.fleet import Fleet, Unit
+    from hex_control.seeds.unit_commitment.transfers import cheapest_transfers
+
+    square = Fleet("sum_of_squares", (Unit(0.0, float(np.max(demand)) + storage.r_max_mw + 1.0, 0.0, 0.0, 1.0),))
+    return cheapest_transfers(square, [(True,)] * n, demand, storage, transfer_total_mwh)
