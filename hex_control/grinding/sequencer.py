@@ -520,9 +520,10 @@ class Sequencer:
     def _feedback(self, command: dict, decision: dict) -> dict:
         """GrindBead.Feedback values of a new command: where the job stands and can still get to."""
         state = self.job.state
+        rollouts = self.rule.outlook_rollouts  # the first in full; later a quarter (the executor's time)
         seen = outlook(self.job.policy, self.model_update.solved_process, self.charges, self.cut_model,
                        time_remaining_s=state.time_remaining_s, material_mm=state.material_mm,
-                       rollouts=self.rule.outlook_rollouts)
+                       rollouts=rollouts if command["pass_index"] == 0 else max(1, rollouts // 4))
         if not seen.reachable:
             self.health.fault("deadline", seen.note, "warn", hold_s=30.0)
         note = "; ".join(filter(None, (decision.get("finish", ""), seen.note)))
