@@ -16,6 +16,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
@@ -31,7 +32,7 @@ from hex_control.ros.app.foxglove_view import CHANNEL_TOPICS
 from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY
 from hex_control.ros.nodes.robot_state import TF_STATIC
 from hex_control_msgs.msg import PlantTelemetry
-from ros_harness import NodeProcess, RosHarness, wait_until
+from ros_harness import NodeProcess, RosHarness, diagnostics_value, wait_until
 
 KEEP = QoSProfile(depth=10_000)
 MOVE_MM, MOVE_S = 12.0, 2.0  # the tool's move along the bead, and its wall time
@@ -64,7 +65,8 @@ def cell(ros_env, tmp_path_factory):
         got = {"tf": ros.collect(TFMessage, "/tf", KEEP), "static": ros.collect(TFMessage, "/tf_static", TF_STATIC),
                "telemetry": ros.collect(PlantTelemetry, "/plant/telemetry", TELEMETRY),
                "description": ros.collect(String, "/robot_description", LATCHED),
-               "joints": ros.collect(JointState, "/joint_states", KEEP)}
+               "joints": ros.collect(JointState, "/joint_states", KEEP),
+               "diagnostics": ros.collect(DiagnosticArray, "/diagnostics", KEEP)}
         node = ros.node("strut_source")
         commands = node.create_publisher(JointState, "/plant/strut_command", 10)
         wait_until(lambda: commands.get_subscription_count() >= 1, 60.0, what="the plant")
@@ -125,6 +127,10 @@ def test_tf_puts_the_disk_where_the_plants_tool_centre_telemetry_says(cell):
     assert set(machine.joint_names) <= set(joints.name) and len(joints.name) == len(joints.position) == 18
     lengths = dict(zip(joints.name, joints.position))
     assert all(2.0 < lengths[name] < 3.4 for name in machine.joint_names)
+    # its /diagnostics count the states it published, and no sample it could not place
+    wait_until(lambda: int(diagnostics_value(list(got["diagnostics"]), "/robot_state", "states") or 0) >= compared,
+               30.0, what="robot_state's count of states")
+    assert diagnostics_value(list(got["diagnostics"]), "/robot_state", "no_frames") is None
 
 
 def test_the_robot_description_is_the_machines_urdf(cell):

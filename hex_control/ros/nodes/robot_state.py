@@ -9,6 +9,7 @@ last sample, or with ``every_sample`` each) ``joint_states`` (every URDF joint t
 rad) and ``tf`` (base -> platform, spindle -> disk, the struts' links), stamped with the
 plant's sim time of that sample. Names are relative: under a cell's namespace they are the
 cell's. In: ``plant/telemetry``. Frames and units: the model module's docstring (REP 103).
+``/diagnostics``: ``states`` published, ``no_frames`` samples it could not place.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from hex_control.config import DEFAULT_MACHINE_FILE, config_file
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.kinematics import load_machine
 from hex_control.kinematics.robot_model import FrameTransform, robot_model
+from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY, time_msg
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
@@ -60,6 +62,7 @@ class RobotStateNode(Node):
         config = load_pass_planner_config(p("pass_planner_config"), document)
         self.model = robot_model(machine, config.frame, disk_radius_mm=config.model.process.disk_radius_mm)
         self.every_sample = p("every_sample")
+        self.diagnostics = Diagnostics(self)  # counts samples it could not place (no_frames), and states published
         self.description = self.create_publisher(String, "robot_description", LATCHED)
         self.static = self.create_publisher(TFMessage, "tf_static", TF_STATIC)
         self.tf = self.create_publisher(TFMessage, "tf", 100)
@@ -78,10 +81,12 @@ class RobotStateNode(Node):
         for k in range(samples) if self.every_sample else (samples - 1,):
             try:  # the plant's arrays are in the machine's joint order; its positions in m
                 state = self.model.state(lengths_m[k] * 1000.0, msg.deflection_mm[k])
-            except ValueError as error:
+            except ValueError as error:  # forward kinematics found no pose (or a malformed sample)
+                self.diagnostics.count("no_frames")
                 self.get_logger().warning(f"no frames for t = {msg.time_s[k]:.3f} s: {error}",
                                           throttle_duration_sec=5.0)
                 continue
+            self.diagnostics.count("states")
             stamp = time_msg(msg.time_s[k])
             joint_state = JointState(name=state.joint_names, position=state.joint_positions)
             joint_state.header.stamp = stamp
