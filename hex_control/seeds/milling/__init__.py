@@ -8,6 +8,7 @@ programmes           constant and triangular spindle programmes (Z04, Z05)
 optimal_speed        the optimal-linear spindle-speed control (eq. 15-18, 10)
 lobes                stability lobes by the zero-order approximation (Altintas & Budak)
 semi_discretization  stability by semi-discretization (Insperger & Stepan), the check
+checks               a programme judged by what it does: eq. 18 replayed, Z04/Z05 timing measured
 case                 the documented case of config/milling/chatter.yaml
 report, study, plots the programme table (Fig. 2-3), the study's files, the figures
 """
