@@ -44,6 +44,13 @@ class Running:
         return self.process.wait(timeout=60)
 
 
+@pytest.fixture(scope="module", autouse=True)
+def no_daemon_left(ros_env):
+    """The verbs start a daemon (hex_control/ros/tools/ros_cli/daemon.py): none outlives this module."""
+    yield
+    hexctl(ros_env, "daemon", "stop")
+
+
 @pytest.fixture
 def shaper(spawn):
     process = spawn(["hex-input-shaper", "--ros-args", "-r", "__ns:=/cli"])
@@ -156,13 +163,23 @@ def test_action_send_goal_is_accepted_and_ctrl_c_cancels_it(ros_env, spawn, tmp_
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 #: issue 40: an echo of a latched topic returns within this (s) beyond the start-up of a
-#: hexctl ROS verb -- Python, rclpy, a node -- measured beside it (that alone took 3.4 s at
-#: a load of 25 on this machine's 2 cores, 0.3 s idle): in the median ...
+#: hexctl ROS verb -- Python, rclpy -- measured beside it (that alone took 3.4 s at a load of
+#: 25 on this machine's 2 cores, 0.3 s idle). 20 tries idle and loaded: hexctl bench topic_tools
 ECHO_BEYOND_START_UP_S = 2.0
-#: ... and every time within one Fast DDS announcement period (3 s) more: a participant
-#: that does not answer this one's start-up announcements is found at its next one (about
-#: 1 of 4 participants here, at any load; ros2cli's echo subscribes from its own node too)
+#: without the daemon, within one Fast DDS announcement period (3 s) more: a participant that
+#: does not answer a new one's start-up announcements is found at its next one (about 1 of 4)
 ECHO_MISSED_ANNOUNCEMENT_S = ECHO_BEYOND_START_UP_S + 3.0
+TRIES = 3
+NO_DAEMON = {"HEXCTL_NO_DAEMON": "1"}
+
+
+@pytest.fixture
+def daemon(ros_env):
+    """A running hexctl daemon of this run's domain, stopped at the end."""
+    started = hexctl(ros_env, "daemon", "start")
+    assert started.returncode == 0 and started.stdout.strip() == "The daemon is running", started
+    yield
+    hexctl(ros_env, "daemon", "stop")
 
 
 def _wall(ros_env, *arguments):
@@ -171,26 +188,31 @@ def _wall(ros_env, *arguments):
     return time.monotonic() - start, result
 
 
-def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env):
+def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon):
     """The QoS is chosen after the publishers are discovered: transient local when they all
-    are. Chosen before, a latched topic was subscribed volatile and echo hung 3 of 4 times."""
+    are (chosen before, a latched topic was subscribed volatile and echo hung 3 of 4 times);
+    the daemon has discovered them already (a new participant finds one in four late)."""
     node = ros.node("contour_publisher")
     node.create_publisher(Contour, "/cli/grinding/contour", LATCHED).publish(
         Contour(job_id="latched", pass_index=3, x_mm=[0.0, 1.5], z_mm=[0.25, 0.5]))
-    walls, start_ups = [], []
-    for attempt in range(20):
+    # the daemon knows the topic (the first echo would wait for that, as its own node would)
+    wait_until(lambda: "/cli/grinding/contour" in hexctl(ros_env, "topic", "list").stdout.split(), 60.0,
+               what="the topic in the daemon's graph")
+    beyond = []
+    for attempt in range(TRIES):
         # the same verb's start-up and shut-down alone: a --timeout of 0 ends it at once (exit 2)
         start_up, nothing = _wall(ros_env, "topic", "echo", "/cli/nobody", "--timeout", "0")
         assert nothing.returncode == 2, nothing
         wall, echoed = _wall(ros_env, "topic", "echo", "/cli/grinding/contour", "--once", "--field", "z_mm",
                              "--timeout", "30")
         assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", (attempt, echoed)
-        walls.append(wall)
-        start_ups.append(start_up)
-    beyond = [w - s for w, s in zip(walls, start_ups)]
-    print("echo wall (s):", [round(w, 2) for w in walls], "start-up (s):", [round(s, 2) for s in start_ups])
-    assert max(beyond) < ECHO_MISSED_ANNOUNCEMENT_S, [round(b, 2) for b in beyond]
-    assert sorted(beyond)[len(beyond) // 2] < ECHO_BEYOND_START_UP_S, [round(b, 2) for b in beyond]
+        beyond.append(wall - start_up)
+    assert max(beyond) < ECHO_BEYOND_START_UP_S, [round(b, 2) for b in beyond]
+    # without a daemon: the verb's own node, the same message (a missed announcement allowed for)
+    start_up, _nothing = _wall(ros_env | NO_DAEMON, "topic", "echo", "/cli/nobody", "--timeout", "0")
+    wall, echoed = _wall(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour", "--once", "--field", "z_mm")
+    assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", echoed
+    assert wall - start_up < ECHO_MISSED_ANNOUNCEMENT_S, (wall, start_up)
     # --timeout bounds everything: no publisher, or a publisher that never sends, is exit 2 in
     # time (the silent one is given long enough to be discovered, see ECHO_MISSED_ANNOUNCEMENT_S)
     for topic, bound_s, why in (
@@ -200,13 +222,14 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env):
         if topic == "/cli/silent_latched":
             node.create_publisher(Contour, topic, LATCHED)
             ros.wait_for_match(node, topic, publishers=1)
-        start = time.monotonic()
-        silent = hexctl(ros_env, "topic", "echo", topic, "--timeout", f"{bound_s:g}", timeout=60)
-        assert silent.returncode == 2 and silent.stderr.strip() == f"hexctl: {why}", silent
-        assert bound_s <= time.monotonic() - start < bound_s + 5.0  # the bound plus start-up, not forever
+        for env in (ros_env, ros_env | NO_DAEMON):
+            start = time.monotonic()
+            silent = hexctl(env, "topic", "echo", topic, "--timeout", f"{bound_s:g}", timeout=60)
+            assert silent.returncode == 2 and silent.stderr.strip() == f"hexctl: {why}", silent
+            assert bound_s <= time.monotonic() - start < bound_s + 5.0  # the bound plus start-up, not forever
 
 
-def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ros, ros_env, shaper):
+def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ros, ros_env, shaper, daemon):
     """list waits until discovery has settled; at a fixed 1 s it listed 2, 15 and 23 of 29 topics."""
     node = ros.node("many_topics")
     ours = {f"/cli/many/topic_{i:02d}" for i in range(25)}
@@ -214,10 +237,15 @@ def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ro
         node.create_publisher(Float64, name, LATCHED if name.endswith("0") else 10)
     expected = ours | {"/cli/motion/tool_path", "/cli/motion/tool_path_raw", "/rosout", "/parameter_events"}
     wait_until(lambda: expected <= {n for n, _ in node.get_topic_names_and_types()}, 60.0, what="the topics")
-    for attempt in range(20):
+    # the verb's own participant (no daemon): it waits until its discovery has settled
+    listed = hexctl(ros_env | NO_DAEMON, "topic", "list")
+    assert listed.returncode == 0 and expected <= set(listed.stdout.split()), \
+        sorted(expected - set(listed.stdout.split()))
+    for attempt in range(TRIES):  # the daemon's graph, settled (20 tries idle and loaded: hexctl bench topic_tools)
         listed = hexctl(ros_env, "topic", "list")
         assert listed.returncode == 0 and expected <= set(listed.stdout.split()), \
             (attempt, sorted(expected - set(listed.stdout.split())))
+    assert "/cli/input_shaper" in hexctl(ros_env, "node", "list").stdout.split()
     info = hexctl(ros_env, "topic", "info", "/cli/many/topic_10", "-v")
     assert info.returncode == 0, info
     assert info.stdout.startswith("Type: std_msgs/msg/Float64\n\nPublisher count: 1\n\n"), info.stdout
@@ -228,6 +256,10 @@ def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ro
     unknown = hexctl(ros_env, "topic", "info", "/cli/no_such_topic", "--wait", "2")
     assert unknown.returncode == 2 and unknown.stderr.strip() == \
         "hexctl: unknown topic /cli/no_such_topic (hexctl topic list)"
+    # the daemon: one a domain, stopped on request
+    assert hexctl(ros_env, "daemon", "status").stdout.startswith("The daemon is running (pid ")
+    assert hexctl(ros_env, "daemon", "stop").stdout.strip() == "The daemon has been stopped"
+    wait_until(lambda: hexctl(ros_env, "daemon", "status").returncode == 1, 30.0, what="the daemon gone")
 
 
 def test_interface_show_expands_nested_types_and_refuses_unknown_ones():

@@ -8,7 +8,7 @@ from __future__ import annotations
 GRAPH_WAIT_S = 10.0
 GRAPH_WAIT_HELP = "wait at most this long (s) for discovery to settle (it ends sooner when the graph stands still)"
 
-ROS_COMMANDS = ("topic", "node", "param", "service", "action", "interface")
+ROS_COMMANDS = ("topic", "node", "param", "service", "action", "interface", "daemon")
 
 
 def add_parsers(commands) -> None:
@@ -98,6 +98,8 @@ def _ros_verbs(commands) -> None:
     goal.add_argument("values", nargs="?", default="", help="YAML mapping of the goal's fields")
     goal.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
     goal.add_argument("--timeout", type=float, default=30.0, help="wait for the server and its answers (s)")
+    daemon = commands.add_parser("daemon", help="the graph daemon that list verbs and echo use (ros2 daemon)")
+    daemon.add_argument("verb", choices=["start", "stop", "status"])
     interface = commands.add_parser("interface", help="interface definitions (ros2 interface stand-in)") \
         .add_subparsers(dest="verb", required=True)
     interface.add_parser("show", help="a message's, service's or action's definition, nested types expanded") \
@@ -152,6 +154,10 @@ def _ros_verb(args) -> int:
         if args.verb == "list":
             return service.service_list(args.show_types, args.wait, args.include_hidden)
         return service.service_call(args.service, args.type, args.values, args.timeout, not args.no_resend)
+    if args.command == "daemon":
+        from hex_control.ros.tools.ros_cli.daemon import daemon_verb
+
+        return daemon_verb(args.verb)
     if args.command == "interface":
         from hex_control.ros.tools.ros_cli.interface import interface_show
 

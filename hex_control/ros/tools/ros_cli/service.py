@@ -7,6 +7,7 @@ from __future__ import annotations
 import yaml
 
 from hex_control.ros.infra.messages import to_primitive
+from hex_control.ros.tools.ros_cli import daemon
 from hex_control.ros.tools.ros_cli.common import (
     absolute,
     cli_node,
@@ -20,13 +21,18 @@ from hex_control.ros.tools.ros_cli.param import answer
 
 def service_list(show_types: bool, wait_s: float, include_hidden: bool = False) -> int:
     """Every service, once discovery has settled; an action's ``_action/...`` ones with
-    ``include_hidden``."""
-    with cli_node("hexctl_service_list") as node:
-        settle_graph(node, wait_s)
-        for name, types in sorted(node.get_service_names_and_types()):
-            if hidden(name) and not include_hidden:
-                continue
-            print(f"{name} [{', '.join(types)}]" if show_types else name)
+    ``include_hidden``. From the daemon's graph (.daemon), else this verb's own."""
+    graph = daemon.settled_graph(wait_s)
+    if graph is None:
+        with cli_node("hexctl_service_list") as node:
+            settle_graph(node, wait_s)
+            services = node.get_service_names_and_types()
+    else:
+        services = graph["services"]
+    for name, types in sorted(services):
+        if hidden(name) and not include_hidden:
+            continue
+        print(f"{name} [{', '.join(types)}]" if show_types else name)
     return 0
 
 
