@@ -91,31 +91,32 @@ class StrutRateLimiter:
 
     def reset(self, lengths_m) -> None:
         """At rest at ``lengths_m``."""
-        self.command_m = np.array(lengths_m, float)
-        self.target_m, self.speed_m_s = self.command_m.copy(), np.zeros_like(self.command_m)
+        self.command_m = [float(v) for v in np.asarray(lengths_m, float).reshape(-1)]
+        self.target_m, self.speed_m_s = list(self.command_m), [0.0] * len(self.command_m)
+        n = len(self.command_m)
+        self._speed_max = np.broadcast_to(self.speed_max_m_s, (n,)).tolist()
+        self._acceleration_max = np.broadcast_to(self.acceleration_max_m_s2, (n,)).tolist()
 
     def command(self, target_m, period_s: float) -> np.ndarray:
-        """The strut commands (m) for the next ``period_s`` towards ``target_m``."""
-        target = np.asarray(target_m, float)
-        behind = self.target_m - self.command_m  # the gap left last period (0 while tracking)
-        target_speed = (target - self.target_m) / period_s
+        """The strut commands (m) for the next ``period_s`` towards ``target_m``. In plain
+        floats over the few joints (numpy's per-call cost was most of it); each operation as
+        the array version did it, element by element, so the same bits."""
+        target = np.asarray(target_m, float).tolist()
+        behind = [t - c for t, c in zip(self.target_m, self.command_m)]  # the gap left last period (0 while tracking)
+        target_speed = [(t - t0) / period_s for t, t0 in zip(target, self.target_m)]
         # the joint that must brake first sets the pace of all
-        pace = min(1.0 / period_s, _least_ratio(self.acceleration_max_m_s2, behind) ** 0.5) if np.any(behind) else 0.0
-        catch_up = behind * pace
-        change = target_speed + catch_up - self.speed_m_s
-        scale_a = min(1.0, _least_ratio(self.acceleration_max_m_s2 * period_s, change))
-        speed = self.speed_m_s + scale_a * change
-        scale_v = min(1.0, _least_ratio(self.speed_max_m_s, speed))
+        pace = min(1.0 / period_s, _least_ratio(self._acceleration_max, behind) ** 0.5) if any(behind) else 0.0
+        change = [ts + b * pace - v for ts, b, v in zip(target_speed, behind, self.speed_m_s)]
+        scale_a = min(1.0, _least_ratio([a * period_s for a in self._acceleration_max], change))
+        speed = [v + scale_a * c for v, c in zip(self.speed_m_s, change)]
+        scale_v = min(1.0, _least_ratio(self._speed_max, speed))
         self.limited += scale_a < 1.0 or scale_v < 1.0
-        self.speed_m_s = scale_v * speed
-        self.command_m = self.command_m + self.speed_m_s * period_s
+        self.speed_m_s = [scale_v * v for v in speed]
+        self.command_m = [c + v * period_s for c, v in zip(self.command_m, self.speed_m_s)]
         self.target_m = target
-        return self.command_m.copy()
+        return np.array(self.command_m)
 
 
 def _least_ratio(limit, value) -> float:
-    """min over joints of limit / |value| (inf where no joint moves)."""
-    magnitude = np.abs(value)
-    moving = magnitude > 0
-    return float(np.min(np.broadcast_to(limit, magnitude.shape)[moving] / magnitude[moving])) if moving.any() \
-        else math.inf
+    """min over joints of limit / |value| (inf where no joint moves); ``limit`` one per joint."""
+    return min((bound / abs(v) for bound, v in zip(limit, value) if v != 0.0), default=math.inf)

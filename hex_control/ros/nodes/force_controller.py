@@ -121,6 +121,7 @@ class ForceControllerNode(Node):
         self.add_post_set_parameters_callback(
             lambda parameters: self.loop.update(**{q.name: q.value for q in parameters if q.name in LIVE}))
         self.publisher = self.create_publisher(ForceAxisCommand, "plant/force_axis_command", 10)
+        self._answer = ForceAxisCommand()
         self.status_publisher = self.create_publisher(DiagnosticStatus, "~/status", LATCHED)
         owner = {name: p[f"{name}_owner"] for name in ("pass_command", "trajectory", "measurement")}
         # latched: a controller that matches the planners late still gets the pass it must run
@@ -168,7 +169,8 @@ class ForceControllerNode(Node):
             self._send(command)
 
     def _send(self, command: Command) -> None:
-        answer = ForceAxisCommand(position_mm=command.position_mm)
+        answer = self._answer  # one message filled anew each period: building one cost more than sending it
+        answer.position_mm = float(command.position_mm)
         answer.header.stamp = TimeMsg(sec=command.stamp_ns // 1_000_000_000, nanosec=command.stamp_ns % 1_000_000_000)
         self.publisher.publish(answer)
 

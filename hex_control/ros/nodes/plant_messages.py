@@ -71,7 +71,11 @@ def pass_result_message(report: PassReport, end_zone_mm: float, time_s: float) -
 class PlantStreams:
     """The plant's state out: /clock every ``clock_period_s`` of sim time, the wrench every
     period, telemetry batched per ``telemetry_period_s`` (while subscribed), strut states
-    (while subscribed) and, with ``debug_streams``, the true wrench, deflection and centre."""
+    (while subscribed) and, with ``debug_streams``, the true wrench, deflection and centre.
+
+    Per period only what must go: one wrench message, filled anew (a message built from
+    scratch cost more than publishing it); whether anyone subscribes is asked once a batch
+    (telemetry) or once a /clock period (strut states), not every period."""
 
     def __init__(self, node, strut_names: list[str], period_s: float, clock_period_s: float,
                  *, telemetry_period_s: float, debug_streams: bool, grinding: bool):
@@ -89,15 +93,20 @@ class PlantStreams:
         self.centre = node.create_publisher(PointStamped, "plant/tool_centre", STREAM) if grinding else None
         # kept (transient-local, the last 100 batches): a late observer still learns where the plant holds
         self.telemetry_publisher = node.create_publisher(PlantTelemetry, "plant/telemetry", TELEMETRY)
+        self._wrench = WrenchStamped()
+        self._wrench.header.frame_id = "tool"
+        self._telemetry_subscribed = False  # asked as each batch begins
+        self._strut_subscribers = 0  # asked with each /clock message
 
     def state(self, state) -> None:
         stamp = time_msg(state.time_s)
         if state.time_s >= self.next_clock_s - 1e-9:
             self.clock.publish(Clock(clock=stamp))
             self.next_clock_s = (math.floor(state.time_s / self.clock_period_s + 1e-6) + 1) * self.clock_period_s
-        wrench = WrenchStamped()
-        wrench.header.stamp, wrench.header.frame_id = stamp, "tool"
-        wrench.wrench.force.z = state.measured_force_n
+            self._strut_subscribers = self.struts.get_subscription_count()
+        wrench = self._wrench
+        wrench.header.stamp = stamp
+        wrench.wrench.force.z = float(state.measured_force_n)
         self.wrench.publish(wrench)
         self.record(state)
         if self.debug_streams:
@@ -106,7 +115,7 @@ class PlantStreams:
             truth.wrench.force.z = state.force_n
             self.truth.publish(truth)
         if state.strut_lengths_m is not None:
-            if self.struts.get_subscription_count():
+            if self._strut_subscribers:
                 joints = JointState(name=self.strut_names, position=state.strut_lengths_m.tolist(),
                                     velocity=state.strut_speeds_m_s.tolist())
                 joints.header.stamp = stamp
@@ -126,8 +135,9 @@ class PlantStreams:
         self.clock.publish(Clock(clock=time_msg(state.time_s)))
 
     def record(self, state, always: bool = False) -> None:
-        if not (always or self.telemetry_publisher.get_subscription_count()):
-            self.telemetry.clear()
+        if not self.telemetry:  # a batch begins: is anyone listening?
+            self._telemetry_subscribed = self.telemetry_publisher.get_subscription_count() > 0
+        if not (always or self._telemetry_subscribed):
             return
         if self.telemetry and self.telemetry[-1][0] == state.time_s:
             return  # the same state sent again (lock-step start-up)
