@@ -17,7 +17,7 @@ import foxglove.layouts as fl
 LAYOUT_FILE = Path(__file__).resolve().parent.parent / "config/foxglove/hex_control.json"
 #: the topics the layout shows: hexctl view's channels, and the recording's topics of the same names
 TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/plant/wrench",
-          "/grinding/contour", "/pass_table", "/grinding/pass_result")
+          "/grinding/contour", "/pass_table", "/grinding/pass_result", "/grinding/bead_outline")
 
 
 def layout() -> fl.Layout:
@@ -27,6 +27,7 @@ def layout() -> fl.Layout:
                                                          label="machine (robot_description)", source_type="topic",
                                                          topic="/robot_description")},
         topics={"/scene/bead": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
+                "/grinding/bead_outline": fl.BaseRendererRosPolygonTopicSettings(visible=True),
                 "/scene/machine": fl.BaseRendererSceneUpdateTopicSettings(visible=True)}))
     force = fl.PlotPanel(title="normal force (N) over sim time", config=fl.PlotConfig(
         paths=[fl.PlotSeries(value="/plant/wrench.wrench.force.z", label="measured", timestamp_method="headerStamp")],

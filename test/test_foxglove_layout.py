@@ -27,6 +27,6 @@ def test_the_shipped_layout_is_the_scripts_and_names_served_topics():
     panels = re.findall(r'"panelType": "(\w+)"', shipped)
     assert sorted(panels) == ["Plot", "Plot", "RawMessages", "Table", "ThreeDee"]
     topics = {match.split(".")[0].split("[")[0] for match in re.findall(r'"(/[a-z_/]+[^"]*)"', shipped)}
-    served = set(CHANNEL_TOPICS) | {"/grinding/pass_result"}  # the last: the recording's (a ROS topic)
+    served = set(CHANNEL_TOPICS) | {"/grinding/pass_result", "/grinding/bead_outline"}  # the recording's
     assert topics <= served and {"/plant/wrench", "/robot_description", "/scene/bead"} <= topics, topics
     assert layout["content"]["items"][0]["content"]["config"]["followTf"] == "base"

@@ -152,3 +152,17 @@ def test_bad_joint_positions_are_refused():
         model.state(_path(machine, frame)[0], math.inf)
     with pytest.raises(ValueError, match="disk_radius_mm"):
         robot_model(machine, frame, disk_radius_mm=0.0)
+
+
+def test_the_bead_outline_runs_along_the_contour_and_back_along_its_parent():
+    from hex_control.grinding.bead_outline import bead_outline_m
+
+    points = bead_outline_m([0.0, 10.0, 20.0], [0.0, 1.0, 0.0], [0.5, 0.5, 0.4])
+    np.testing.assert_allclose(points / MM, [[0, 0, 0.5], [10, 0, 1.5], [20, 0, 0.4],
+                                             [20, 0, 0.4], [10, 0, 0.5], [0, 0, 0.5]], atol=1e-12)
+    flat = bead_outline_m([0.0, 5.0], [0.2, 0.3])
+    np.testing.assert_allclose(flat[:, 2] / MM, [0.2, 0.3, 0.0, 0.0], atol=1e-12)
+    for bad in (([0.0], [1.0], []), ([0.0, 1.0], [1.0], []), ([0.0, 1.0], [1.0, math.nan], []),
+                ([0.0, 1.0], [1.0, 1.0], [0.0])):
+        with pytest.raises(ValueError):
+            bead_outline_m(*bad)

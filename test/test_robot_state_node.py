@@ -17,6 +17,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PolygonStamped
 from google.protobuf import descriptor_pb2, descriptor_pool, message_factory
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
@@ -66,7 +67,8 @@ def cell(ros_env, tmp_path_factory):
                "telemetry": ros.collect(PlantTelemetry, "/plant/telemetry", TELEMETRY),
                "description": ros.collect(String, "/robot_description", LATCHED),
                "joints": ros.collect(JointState, "/joint_states", KEEP),
-               "diagnostics": ros.collect(DiagnosticArray, "/diagnostics", KEEP)}
+               "diagnostics": ros.collect(DiagnosticArray, "/diagnostics", KEEP),
+               "outline": ros.collect(PolygonStamped, "/grinding/bead_outline", LATCHED)}
         node = ros.node("strut_source")
         commands = node.create_publisher(JointState, "/plant/strut_command", 10)
         wait_until(lambda: commands.get_subscription_count() >= 1, 60.0, what="the plant")
@@ -147,6 +149,12 @@ def test_the_robot_description_is_the_machines_urdf(cell):
         assert float(limit.get("upper")) == pytest.approx(machine.strut_length_max_mm / 1000)
     assert all(j.find("parent").get("link") in links and j.find("child").get("link") in links
                for j in joints.values())
+    # and the workpiece: the scanned 60 mm bead as an outline in its frame (m)
+    outline = wait_until(lambda: got["outline"], 30.0, what="the bead outline")[-1]
+    points = [(p.x, p.z) for p in outline.polygon.points]
+    assert outline.header.frame_id == "bead" and len(points) % 2 == 0 and len(points) > 20
+    assert points[0][0] == 0.0 and points[len(points) // 2 - 1][0] == pytest.approx(0.060)
+    assert max(z for _, z in points) > 0.0005 and points[-1] == (0.0, 0.0)
 
 
 def _message_class(channel: dict):

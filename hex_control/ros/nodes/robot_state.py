@@ -7,15 +7,18 @@ Out: ``robot_description`` (std_msgs/String, URDF, latched), ``tf_static`` (latc
 machine -> bead, platform -> spindle, disk -> tool), and per telemetry batch of the plant (the
 last sample, or with ``every_sample`` each) ``joint_states`` (every URDF joint that moves: m,
 rad) and ``tf`` (base -> platform, spindle -> disk, the struts' links), stamped with the
-plant's sim time of that sample. Names are relative: under a cell's namespace they are the
-cell's. In: ``plant/telemetry``. Frames and units: the model module's docstring (REP 103).
-``/diagnostics``: ``states`` published, ``no_frames`` samples it could not place.
+plant's sim time of that sample; per scan ``grinding/bead_outline`` (geometry_msgs/
+PolygonStamped in frame ``bead``, latched: the bead's cross-section along its length, so that
+a recording shows the workpiece in 3-D). Names are relative: under a cell's namespace they
+are the cell's. In: ``plant/telemetry``, ``grinding/contour``. Frames and units: the model
+module's docstring (REP 103). ``/diagnostics``: ``states`` published, ``no_frames`` samples it
+could not place, ``rejected_contours``.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import Point32, PolygonStamped, TransformStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
@@ -23,6 +26,7 @@ from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from hex_control.config import DEFAULT_MACHINE_FILE, config_file
+from hex_control.grinding.bead_outline import bead_outline_m
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.kinematics import load_machine
 from hex_control.kinematics.robot_model import FrameTransform, robot_model
@@ -31,7 +35,7 @@ from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY, time_msg
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import run_node
-from hex_control_msgs.msg import PlantTelemetry
+from hex_control_msgs.msg import Contour, PlantTelemetry
 
 PARAMETERS = {
     "machine_file": Spec(str(config_file(DEFAULT_MACHINE_FILE)), "machine YAML (config/machines/); the plant's"),
@@ -70,7 +74,22 @@ class RobotStateNode(Node):
         self.description.publish(String(data=self.model.urdf()))
         self.static.publish(TFMessage(transforms=[transform_message(t, time_msg(0.0))
                                                   for t in self.model.static_transforms()]))
+        self.outline = self.create_publisher(PolygonStamped, "grinding/bead_outline", LATCHED)
         self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
+        self.create_subscription(Contour, "grinding/contour", self._on_contour, LATCHED)
+
+    def _on_contour(self, msg: Contour) -> None:
+        """The scanned bead as a closed outline in the bead frame: a recording shows it in 3-D."""
+        try:
+            points = bead_outline_m(msg.x_mm, msg.z_mm, msg.parent_mm)
+        except ValueError as error:
+            self.diagnostics.count("rejected_contours")
+            self.get_logger().warning(f"no bead outline: {error}", throttle_duration_sec=5.0)
+            return
+        outline = PolygonStamped()
+        outline.header.stamp, outline.header.frame_id = msg.header.stamp, "bead"
+        outline.polygon.points = [Point32(x=x, y=y, z=z) for x, y, z in points.tolist()]
+        self.outline.publish(outline)
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
         samples, joints = len(msg.time_s), len(msg.strut_names)
