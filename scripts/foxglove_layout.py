@@ -28,6 +28,7 @@ def layout() -> fl.Layout:
                                                          topic="/robot_description")},
         topics={"/scene/bead": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 "/grinding/bead_outline": fl.BaseRendererRosPolygonTopicSettings(visible=True),
+                "/scene/force": fl.BaseRendererSceneUpdateTopicSettings(visible=True),
                 "/scene/machine": fl.BaseRendererSceneUpdateTopicSettings(visible=True)}))
     force = fl.PlotPanel(title="normal force (N) over sim time", config=fl.PlotConfig(
         paths=[fl.PlotSeries(value="/plant/wrench.wrench.force.z", label="measured", timestamp_method="headerStamp")],

@@ -31,6 +31,7 @@ def test_the_views_channels_carry_the_pass_table_forces_and_bead(ros, tmp_path):
     assert view.get_namespace() == "/cell4"
     view._on_telemetry(PlantTelemetry(strut_names=["strut_0"], time_s=[1.0, 1.005], measured_force_n=[20.5, math.nan],
                                       true_force_n=[20.0, 21.0], strut_lengths_m=[2.5, 2.5]))
+    view._on_telemetry(PlantTelemetry(time_s=[1.01], measured_force_n=[40.0], true_force_n=[40.0]))
     contour = Contour(job_id="j", pass_index=0, x_mm=[0.0, 30.0, 60.0], z_mm=[0.0, 1.0, 0.0],
                       parent_mm=[0.5, 0.5, 0.5])
     view._on_contour(contour)
@@ -48,10 +49,19 @@ def test_the_views_channels_carry_the_pass_table_forces_and_bead(ros, tmp_path):
         for schema, channel, message in make_reader(stream).iter_messages():
             messages.setdefault(channel.topic, []).append((schema, message))
     forces = [json.loads(m.data) for _, m in messages["/plant/wrench"]]
-    assert [f["wrench"]["force"]["z"] for f in forces] == [20.5, None]  # NaN is no JSON number
-    assert [f["header"]["stamp"] for f in forces] == [{"sec": 1, "nanosec": 0}, {"sec": 1, "nanosec": 5_000_000}]
-    assert [m.log_time for _, m in messages["/plant/wrench"]] == [1_000_000_000, 1_005_000_000]
-    assert [json.loads(m.data)["wrench"]["force"]["z"] for _, m in messages["/plant/true_wrench"]] == [20.0, 21.0]
+    assert [f["wrench"]["force"]["z"] for f in forces] == [20.5, None, 40.0]  # NaN is no JSON number
+    assert [f["header"]["stamp"] for f in forces[:2]] == [{"sec": 1, "nanosec": 0}, {"sec": 1, "nanosec": 5_000_000}]
+    assert [m.log_time for _, m in messages["/plant/wrench"]] == [1_000_000_000, 1_005_000_000, 1_010_000_000]
+    assert [json.loads(m.data)["wrench"]["force"]["z"] for _, m in messages["/plant/true_wrench"]] == [20.0, 21.0, 40.0]
+    # the force arrow of each batch's last sample: none for NaN, 40 mm (1 mm/N) along the tool's z for 40 N
+    schema = messages["/scene/force"][0][0]
+    scenes = [_decoder(schema).FromString(m.data) for _, m in messages["/scene/force"]]
+    assert [len(s.entities[0].arrows) for s in scenes] == [0, 1]
+    arrow, entity = scenes[1].entities[0].arrows[0], scenes[1].entities[0]
+    assert entity.frame_id == "tool" and arrow.shaft_length + arrow.head_length == pytest.approx(0.040)
+    q = arrow.pose.orientation  # the arrow's x axis turned onto z
+    assert (1 - 2 * (q.y ** 2 + q.z ** 2), 2 * (q.x * q.z - q.w * q.y)) == (pytest.approx(0.0, abs=1e-12),
+                                                                            pytest.approx(1.0))
 
     [row] = json.loads(messages["/pass_table"][-1][1].data)["rows"]
     assert row == {"job": "j", "pass": 0, "X_mm": 0.868, "t_left_s": 30.0, "K1_J_mm3": 10.0, "cut_planned_mm": 0.3,

@@ -10,6 +10,8 @@ stamped with the cell's sim time (the timeline is the header stamps', not receiv
   /scene/machine            foxglove.SceneUpdate: the URDF's visuals as primitives in their link frames
   /scene/bead               foxglove.SceneUpdate in frame ``bead``: the bead's contour, the parent
                             surface under it and the bead as first scanned (lines, m)
+  /scene/force              foxglove.SceneUpdate in frame ``tool``: the measured normal force as an
+                            arrow along the tool's z, 1 mm per N (each telemetry batch's last sample)
   /plant/wrench             JSON shaped like geometry_msgs/WrenchStamped: the measured normal force
   /plant/true_wrench        the same for the true force (both from the plant's telemetry samples)
   /grinding/contour         JSON shaped like hex_control_msgs/Contour (plot z_mm against x_mm)
@@ -33,6 +35,7 @@ import rclpy
 from foxglove import Channel, Schema
 from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
 from foxglove.messages import (
+    ArrowPrimitive,
     Color,
     CubePrimitive,
     CylinderPrimitive,
@@ -67,8 +70,9 @@ CONTOUR_SCHEMA = {"type": "object", "title": "hex_control_msgs/msg/Contour", "pr
     "parent_mm": {"type": "array"}}}
 TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties": {"rows": {"type": "array"}}}
 #: every channel the view logs to (config/foxglove/hex_control.json shows them)
-CHANNEL_TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/plant/wrench",
-                  "/plant/true_wrench", "/grinding/contour", "/pass_table")
+CHANNEL_TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/scene/force",
+                  "/plant/wrench", "/plant/true_wrench", "/grinding/contour", "/pass_table")
+FORCE_SCALE_M_PER_N = 1e-3  # the force arrow: 1 mm per N (60 N, F_max, is 60 mm)
 STATUS = {PassResult.COMPLETED: "completed", PassResult.ABORTED: "aborted", PassResult.REJECTED: "rejected",
           PassResult.FAULTED: "faulted"}
 
@@ -115,6 +119,18 @@ def machine_scene(urdf: str) -> SceneUpdate:
                                  for link, shapes in by_link.items()])
 
 
+def force_scene(force_n: float, stamp: Timestamp) -> SceneUpdate:
+    """The normal force the work puts on the disk: an arrow from the tool frame's origin along
+    its z (the bead normal), FORCE_SCALE_M_PER_N long per N (none below 0.5 N)."""
+    length = max(force_n, 0.0) * FORCE_SCALE_M_PER_N if math.isfinite(force_n) else 0.0
+    arrows = [ArrowPrimitive(pose=Pose(position=Vector3(x=0.0, y=0.0, z=0.0),
+                                       orientation=Quaternion(x=0.0, y=-math.sqrt(0.5), z=0.0, w=math.sqrt(0.5))),
+                             shaft_length=length * 0.8, shaft_diameter=0.004, head_length=length * 0.2,
+                             head_diameter=0.01, color=Color(r=0.2, g=0.8, b=1.0, a=1.0))] if length >= 5e-4 else []
+    return SceneUpdate(entities=[SceneEntity(timestamp=stamp, frame_id="tool", id="force", frame_locked=True,
+                                             arrows=arrows)])
+
+
 def bead_scene(contour: Contour, first: Contour | None, stamp: Timestamp) -> SceneUpdate:
     """The contour (orange), the parent surface (grey) and the bead as first scanned (faint),
     in the bead frame (x along, z up; m)."""
@@ -145,6 +161,7 @@ class FoxgloveView(Node):
                                    context=foxglove_context)
         self.machine = SceneUpdateChannel("/scene/machine", context=foxglove_context)
         self.bead = SceneUpdateChannel("/scene/bead", context=foxglove_context)
+        self.force = SceneUpdateChannel("/scene/force", context=foxglove_context)
         self.wrench = Channel("/plant/wrench", schema=WRENCH_SCHEMA, context=foxglove_context)
         self.true_wrench = Channel("/plant/true_wrench", schema=WRENCH_SCHEMA, context=foxglove_context)
         self.contour = Channel("/grinding/contour", schema=CONTOUR_SCHEMA, context=foxglove_context)
@@ -191,6 +208,10 @@ class FoxgloveView(Node):
                                                               "torque": {"x": 0.0, "y": 0.0, "z": 0.0}}},
                                 log_time=ns)
             self.time_ns = max(self.time_ns, ns)
+        if msg.time_s and msg.measured_force_n:
+            ns = _ns(msg.time_s[-1])
+            self.force.log(force_scene(msg.measured_force_n[-1], Timestamp(sec=ns // 1_000_000_000,
+                                                                          nsec=ns % 1_000_000_000)), log_time=ns)
 
     def _on_contour(self, msg: Contour) -> None:
         if self.first_contour is None or msg.pass_index == 0:
