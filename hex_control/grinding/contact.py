@@ -388,6 +388,8 @@ class LiveContour:
         b[:, self.live - k:self.live] = b[:, j:self.done]
         self.live -= k
         self.done = j
+        if k > 256:  # a jump back (the plant's next pass): the top as cut so far, the searches' reach
+            self.top_mm = float(max(b[1, :self.done].max(initial=-math.inf), b[1, self.live:].max()))
 
     def contact(self, pose: DiskPose) -> ContactPatch:
         if pose.tip_z_mm - TOUCH_MM > self.top_mm:

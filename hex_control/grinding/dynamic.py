@@ -47,6 +47,7 @@ Units: mm, s, rad, N; power W; removal rate mm^3/s.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field
 
@@ -131,15 +132,17 @@ class _TipTracking:
     def __init__(self, model: DiskModel, tip_x_mm, tip_z_mm, start_tip_x_mm: float, *, g1: float, g2: float):
         self.tip_x, self.tip_z = np.asarray(tip_x_mm, float), np.asarray(tip_z_mm, float)
         self.slope = np.diff(self.tip_z) / np.diff(self.tip_x)
+        # the same values as plain floats: desired() runs five times a step (bisect, not numpy)
+        self._x, self._z, self._slope = self.tip_x.tolist(), self.tip_z.tolist(), self.slope.tolist()
         self.model, self.g1, self.g2 = model, g1, g2
         self.initial_angle_rad = model.relaxed_angle_rad
         self.h0 = self.desired(start_tip_x_mm)[0] + model.radius_mm * math.sin(self.initial_angle_rad)
 
     def desired(self, x_mm: float) -> tuple[float, float]:
-        i = int(np.searchsorted(self.tip_x, x_mm)) - 1
-        if i < 0 or i >= self.slope.size:
-            return float(self.tip_z[0] if i < 0 else self.tip_z[-1]), 0.0
-        return float(self.tip_z[i] + self.slope[i] * (x_mm - self.tip_x[i])), float(self.slope[i])
+        i = bisect.bisect_left(self._x, x_mm) - 1
+        if i < 0 or i >= len(self._slope):
+            return (self._z[0] if i < 0 else self._z[-1]), 0.0
+        return self._z[i] + self._slope[i] * (float(x_mm) - self._x[i]), self._slope[i]
 
 
 class HeightControl(_TipTracking):
