@@ -35,8 +35,7 @@ def layout() -> fl.Layout:
         x_axis_val="timestamp", y_axis_label="N"))
     profile = fl.PlotPanel(title="bead profile: height (mm) along the bead (mm)", config=fl.PlotConfig(
         paths=[fl.PlotSeries(value="/grinding/contour.z_mm[:]", label="contour")],
-        x_axis_val="custom", x_axis_path=fl.PlotXAxisPath(value="/grinding/contour.x_mm[:]"),
-        time_range="latest"))
+        x_axis_val="currentCustom", x_axis_path=fl.PlotXAxisPath(value="/grinding/contour.x_mm[:]")))
     table = fl.TablePanel(title="pass table: decision (X, K1, cut, F_N, V_f, J) and result",
                           config=fl.TableConfig(topic_path="/pass_table.rows"))
     result = fl.RawMessagesPanel(title="last pass result", config=fl.RawMessagesConfig(
