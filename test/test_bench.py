@@ -3,6 +3,8 @@
 import re
 import warnings
 
+import pytest
+
 from hex_control.bench import run_benchmarks
 
 
@@ -62,15 +64,17 @@ def test_pru3_dynamics_benchmark_prints_rate_and_ratio(capsys):
 
 
 def test_graph_benchmark_runs_the_whole_graph_with_both_executors(ros_env, capsys):
-    """The whole graph in lock-step on a short job, once per executor: the figures are
-    reported (only their presence asserted) and both executors make the same passes."""
+    """The whole graph in lock-step on a short job, as the demo runs it (events executor,
+    recorder on) and on the SingleThreadedExecutor: the figures are reported (only their
+    presence asserted), the observer's CPU among them, and both make the same passes."""
     assert run_benchmarks(["graph"], quick=True) == 0
     out = capsys.readouterr().out
-    for executor in ("events", "single"):
-        assert re.search(rf"{executor} executor: [\d.]+ simulated s in [\d.]+ wall s = [\d.]+ simulated s per wall s",
-                         out)
+    for variant in ("demo", "single"):
+        assert re.search(rf"{variant}: [\d.]+ simulated s in [\d.]+ wall s = [\d.]+ simulated s per wall s", out)
     assert out.count("CPU s per simulated s: plant") == 2
-    assert "the same passes with both executors: True" in out
+    assert len(re.findall(r"observer [\d.]+", out)) == 2
+    assert re.search(r"clock standing for planning \d+ %", out)
+    assert "the same passes in every run: True" in out
 
 
 def test_graph_starts_counts_fresh_graphs_ready_and_removes_their_logs(ros_env, tmp_path):
@@ -89,3 +93,18 @@ def test_seed_004_benchmarks_print_their_figures(capsys):
     assert re.search(r"0.2 s of cutting .*: [\d.]+ s wall, [\d.]+ simulated s per wall s", out)
     assert re.search(r"naive baseline \(full FE model.*ratio [\d.]+", out)
     assert re.search(r"naive baseline \(Lagrange with multipliers.*ratio [\d.]+", out)
+
+
+def test_the_clocks_standing_time_is_the_wall_time_beyond_the_jobs_pace():
+    """hexctl bench graph: telemetry batches of 0.1 s sim every 0.02 s wall, and one gap of
+    1.5 s wall before a batch (the planners planning while the plant held): 1.48 s stood."""
+    from hex_control.bench.graph import standing_wall_s
+
+    arrivals, wall, sim = [], 0.0, 0.0
+    for k in range(40):
+        wall += 1.5 if k == 20 else 0.02
+        sim += 0.1
+        arrivals.append((wall, sim))
+    assert standing_wall_s(arrivals) == pytest.approx(1.48, abs=1e-9)
+    assert standing_wall_s(arrivals[:20]) == pytest.approx(0.0, abs=1e-9)
+    assert standing_wall_s([]) == 0.0

@@ -60,3 +60,31 @@ def test_bad_commands_are_refused():
         machine.step(np.full(5, 0.5))
     with pytest.raises(ValueError):
         machine.step(np.array([0.5] * 5 + [math.nan]))
+
+
+def test_a_period_stepped_at_once_is_bit_for_bit_its_internal_steps():
+    """Issue 39: the plant advances the table and the machine a control period at a time
+    (``advance``); that must be exactly the internal steps one by one, noise included."""
+    from hex_control.plant.force_table import ForceTable, ForceTableParameters
+
+    parameters = ForceTableParameters(runout_mm=0.02, sensor_noise_n=0.3, disk_slowdown_hz_per_n=1.0)
+    one_by_one, at_once = ForceTable(parameters, seed=3), ForceTable(parameters, seed=3)
+    machines = Machine(MachineParameters()), Machine(MachineParameters())
+    rng = np.random.default_rng(0)
+    for period in range(400):
+        command = float(rng.uniform(-1.0, 1.5))
+        struts = 2.5 + 0.01 * rng.normal(size=6)
+        if period % 50 == 0:  # the work moves under the disk
+            one_by_one.surface_mm = at_once.surface_mm = float(rng.uniform(-0.5, 0.5))
+        for _ in range(5):
+            one_by_one.step(command)
+            machines[0].step(struts)
+        at_once.advance(command, 5)
+        machines[1].advance(struts, 5)
+        assert (at_once.force_n, at_once.measured_n, at_once.position_mm, at_once.disk_phase_rad) == \
+            (one_by_one.force_n, one_by_one.measured_n, one_by_one.position_mm, one_by_one.disk_phase_rad)
+        assert np.array_equal(machines[1].lengths_m, machines[0].lengths_m)
+        assert machines[1].deflection_mm == machines[0].deflection_mm
+    assert one_by_one.force_n > 0  # the sequence did touch the work
+    with pytest.raises(ValueError):
+        at_once.advance(math.nan, 5)

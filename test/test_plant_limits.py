@@ -141,3 +141,36 @@ def test_the_planned_paths_stay_well_inside_the_machine_files_joint_limits(machi
     limiter.reset(lengths[0])
     np.testing.assert_allclose([limiter.command(row, period_s) for row in lengths[1:]], lengths[1:], atol=1e-12)
     assert limiter.limited == 0
+
+
+def _array_limiter_command(state, target, period_s, speed_max, acceleration_max):
+    """The limiter's law on arrays, as it was written before it moved to plain floats."""
+    def least(limit, value):
+        magnitude = np.abs(value)
+        moving = magnitude > 0
+        return float(np.min(np.broadcast_to(limit, magnitude.shape)[moving] / magnitude[moving])) if moving.any() \
+            else math.inf
+    command, old_target, speed = state
+    behind = old_target - command
+    pace = min(1.0 / period_s, least(acceleration_max, behind) ** 0.5) if np.any(behind) else 0.0
+    change = (target - old_target) / period_s + behind * pace - speed
+    speed = speed + min(1.0, least(acceleration_max * period_s, change)) * change
+    speed = min(1.0, least(speed_max, speed)) * speed
+    return command + speed * period_s, target, speed
+
+
+def test_the_limiter_in_plain_floats_gives_the_array_laws_bits():
+    """Issue 39: the per-period limiter runs in plain floats; every command is bit for bit
+    what the array version gave, through jumps (limited) and small moves (passed)."""
+    speed_max, acceleration_max = np.array([0.05, 0.04, 0.05, 0.06, 0.05, 0.05]), 0.5
+    limiter = StrutRateLimiter(speed_max, acceleration_max)
+    start = np.full(6, 2.5)
+    limiter.reset(start)
+    state = (start.copy(), start.copy(), np.zeros(6))
+    rng = np.random.default_rng(1)
+    target = start.copy()
+    for period in range(600):
+        target = target + (0.02 * rng.normal(size=6) if period % 100 == 0 else 1e-5 * rng.normal(size=6))
+        state = _array_limiter_command(state, target, 0.005, speed_max, acceleration_max)
+        assert np.array_equal(limiter.command(target, 0.005), state[0])
+    assert limiter.limited > 0

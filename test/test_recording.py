@@ -269,3 +269,29 @@ def test_play_keeps_the_recorded_pace_remaps_loops_and_publishes_the_clock(ros, 
     refused = subprocess.run([hexctl, "play", str(tmp_path / "paced"), "--remap", "/not/recorded:=/x"], env=ros_env,
                              capture_output=True, text=True, timeout=60)
     assert refused.returncode == 2 and "has no topic /not/recorded" in refused.stderr
+
+
+def test_a_jobs_recorder_leaves_out_the_streams_telemetry_batches(tmp_path):
+    """Issue 39 item 3: the plant computes plant/strut_states only while someone subscribes,
+    so the job's recorder (everything under the cell) leaves it and the other per-period
+    streams plant/telemetry batches out, and records the batches and the rest."""
+    from types import SimpleNamespace
+
+    from rclpy.qos import QoSProfile
+
+    from hex_control.recording.bag import BagWriter
+    from hex_control.ros.tools.recorder import BATCHED_IN_TELEMETRY, Recorder
+
+    topics = {"/cell/plant/strut_states": "sensor_msgs/msg/JointState",
+              "/cell/plant/true_wrench": "geometry_msgs/msg/WrenchStamped",
+              "/cell/plant/wrench": "geometry_msgs/msg/WrenchStamped",
+              "/cell/plant/telemetry": "hex_control_msgs/msg/PlantTelemetry",
+              "/other/plant/wrench": "geometry_msgs/msg/WrenchStamped"}
+    subscribed = []
+    node = SimpleNamespace(
+        get_topic_names_and_types=lambda: [(name, [kind]) for name, kind in topics.items()],
+        get_publishers_info_by_topic=lambda name: [SimpleNamespace(qos_profile=QoSProfile(depth=10))],
+        create_subscription=lambda cls, name, callback, qos, raw: subscribed.append(name) or name,
+        create_timer=lambda period, callback: None)
+    Recorder(node, BagWriter(tmp_path / "bag"), all_topics=True, under="/cell", exclude=BATCHED_IN_TELEMETRY)
+    assert sorted(subscribed) == ["/cell/plant/telemetry", "/cell/plant/wrench"]
