@@ -79,6 +79,13 @@ def _subscribe_class_and_qos(node, topic: str, end: float, timeout_s: float, dur
     return cls, qos_from_options(durability, reliability, depth, publishers_qos(publishers))
 
 
+def _subscriptions(node, topic: str) -> list:
+    """The topic's subscriptions but this verb's and the daemon's (it holds latched topics)."""
+    own = node.get_fully_qualified_name()
+    return [s for s in node.get_subscriptions_info_by_topic(topic)
+            if f"{s.node_namespace.rstrip('/')}/{s.node_name}" != own and s.node_name != daemon.NODE_NAME]
+
+
 def topic_list(show_types: bool, wait_s: float, include_hidden: bool = False) -> int:
     """Every topic (``show_types``: with its publishers and subscriptions counted): from the
     daemon's graph (:mod:`.daemon`), without one once this verb's own discovery has settled."""
@@ -94,7 +101,7 @@ def topic_list(show_types: bool, wait_s: float, include_hidden: bool = False) ->
             if hidden(name) and not include_hidden:
                 continue
             if show_types:
-                pubs, subs = node.count_publishers(name), node.count_subscribers(name)
+                pubs, subs = node.count_publishers(name), len(_subscriptions(node, name))
                 print(f"{name} [{', '.join(types)}] publishers: {pubs}, subscribers: {subs}")
             else:
                 print(name)
@@ -128,10 +135,8 @@ def topic_info(topic: str, verbose: bool, wait_s: float) -> int:
         types = dict(node.get_topic_names_and_types()).get(topic)
         if not types:
             raise VerbError(f"unknown topic {topic} (hexctl topic list)")
-        own = node.get_fully_qualified_name()
         publishers = node.get_publishers_info_by_topic(topic)
-        subscriptions = [s for s in node.get_subscriptions_info_by_topic(topic)
-                         if f"{s.node_namespace.rstrip('/')}/{s.node_name}" != own]
+        subscriptions = _subscriptions(node, topic)
         print(f"Type: {', '.join(types)}\n")
         for title, endpoints in (("Publisher", publishers), ("Subscription", subscriptions)):
             print(f"{title} count: {len(endpoints)}\n")
