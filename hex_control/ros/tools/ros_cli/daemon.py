@@ -1,9 +1,9 @@
 """``hexctl daemon start|stop|status``: a long-lived participant that has already discovered
 the graph, as ros2cli's daemon. ``topic list``, ``node list``, ``service list`` ask it for its
 graph and ``topic echo`` has it subscribe and forward the serialized messages (a latched
-topic's, those of all-transient-local publishers, it holds from their discovery on, and an
-echo gets the stored ones at once: a new subscription waits for the publisher to learn of
-it, 0.3 s idle and up to 2.5 s at a load of 20 here): a verb's own
+topic, its publishers all transient local, it goes on holding after the echo, and the next
+echo gets the stored messages at once: a new subscription waits for the publisher to learn
+of it, 0.3 s idle and up to 2.5 s at a load of 20 here): a verb's own
 new participant waits for discovery, and Fast DDS finds about one remote participant in four
 only at that one's next announcement, up to 3 s later (measured here, at any load, whatever
 the initial announcements), so a list cut short missed topics and an echo took up to 3 s.
@@ -197,35 +197,31 @@ class _Daemon:
         self.echoes = 0
         self.stopping = False
         self.latched: dict[str, _Latched] = {}
-        self.not_latched: set[str] = set()
 
-    def hold_latched(self) -> None:
-        """Subscribe to each newly discovered topic whose publishers are all transient local."""
+    def hold(self, topic: str, publishers) -> _Latched | None:
+        """The held subscription of ``topic`` if its publishers are all transient local
+        (created now, kept for the next echo), else None. On the spinning thread."""
         from rclpy.qos import DurabilityPolicy
 
         from hex_control.ros.infra.messages import message_class
         from hex_control.ros.tools.ros_cli.topic import publishers_qos
 
+        if topic in self.latched:
+            return self.latched[topic]
+        qos = publishers_qos(publishers, depth=LATCHED_DEPTH)
+        if qos.durability != DurabilityPolicy.TRANSIENT_LOCAL or len({p.topic_type for p in publishers}) != 1:
+            return None
+        held = _Latched(publishers[0].topic_type)
+        held.subscription = self.node.create_subscription(message_class(held.type_name), topic, held.on_message,
+                                                          qos, raw=True)
+        self.latched[topic] = held
+        return held
+
+    def forget_gone_publishers(self) -> None:
+        """A held topic whose publishers are gone: their messages go with them."""
         for topic, held in self.latched.items():
-            if not self.node.get_publishers_info_by_topic(topic):
-                held.messages.clear()  # its publishers are gone: their messages with them
-        for topic, types in self.graph[1]:
-            if topic in self.latched or topic in self.not_latched or len(types) != 1:
-                continue
-            publishers = self.node.get_publishers_info_by_topic(topic)
-            if not publishers:
-                continue  # subscriptions only, so far
-            qos = publishers_qos(publishers, depth=LATCHED_DEPTH)
-            if qos.durability != DurabilityPolicy.TRANSIENT_LOCAL:
-                self.not_latched.add(topic)
-                continue
-            try:
-                cls = message_class(types[0])
-            except ValueError:
-                self.not_latched.add(topic)
-                continue
-            held = self.latched[topic] = _Latched(types[0])
-            held.subscription = self.node.create_subscription(cls, topic, held.on_message, qos, raw=True)
+            if held.messages and not self.node.get_publishers_info_by_topic(topic):
+                held.messages.clear()
 
     def on_spin_thread(self, function):
         answer: queue.Queue = queue.Queue()
@@ -259,7 +255,7 @@ class _Daemon:
                 waiting = self.incomplete_since is not None and now - self.incomplete_since < INCOMPLETE_NODE_S
                 if graph != self.graph or waiting:
                     self.graph, self.changed = graph, now
-                    self.hold_latched()
+                    self.forget_gone_publishers()
                 if not self.echoes and now - self.last_request > IDLE_S:
                     self.stopping = True
 
@@ -315,15 +311,15 @@ class _Daemon:
 
         topic, timeout_s = message["topic"], float(message["timeout_s"])
         end = time.monotonic() + timeout_s
-        if topic in self.latched and not any(message.get(k) for k in ("durability", "reliability", "depth")) \
-                and self.on_spin_thread(lambda: self.node.get_publishers_info_by_topic(topic)):
-            self.echo_latched(connection, topic)
-            return
         while not (publishers := self.on_spin_thread(lambda: self.node.get_publishers_info_by_topic(topic))):
             if time.monotonic() >= end:
                 raise VerbError(f"no publisher of {topic} within {timeout_s:g} s "
                                 "(is it running, with the same ROS_DOMAIN_ID? hexctl topic list)")
             time.sleep(0.02)
+        if not any(message.get(k) for k in ("durability", "reliability", "depth")) \
+                and self.on_spin_thread(lambda: self.hold(topic, publishers)) is not None:
+            self.echo_latched(connection, topic)
+            return
         qos = qos_from_options(message.get("durability"), message.get("reliability"), message.get("depth"),
                                publishers_qos(publishers))
         type_name = publishers[0].topic_type
