@@ -164,7 +164,9 @@ class ForceControllerNode(Node):
             self._publish_status(self.loop.trajectory)
 
     def _on_wrench(self, msg: WrenchStamped) -> None:
-        command = self.loop.on_measurement(msg.wrench.force.z, _ns(msg.header.stamp), self._clock_ns())
+        loop = self.loop  # the node clock only for the timer trigger: measurements run on their stamps
+        command = loop.on_measurement(msg.wrench.force.z, _ns(msg.header.stamp),
+                                      None if loop.measurement_triggered else self._clock_ns())
         if command is not None:
             self._send(command)
 
