@@ -78,9 +78,24 @@ def _controlled(values: np.ndarray, control: np.ndarray) -> dict:
 
 
 def _difference(first: dict, second: dict) -> dict:
+    """first less second, its standard error, z, and how many days a model would give it
+    3 standard errors at this difference and these spreads."""
     diff = first["mean_percent"] - second["mean_percent"]
     se = math.hypot(first["standard_error_percent"], second["standard_error_percent"])
-    return {"percent": diff, "standard_error_percent": se, "z": diff / se if se > 0 else math.nan}
+    spread = math.hypot(first["standard_error_percent"] * math.sqrt(first["days"]),
+                        second["standard_error_percent"] * math.sqrt(second["days"]))  # one day of each, %
+    return {"percent": diff, "standard_error_percent": se, "z": diff / se if se > 0 else math.nan,
+            "days_a_model_for_3_standard_errors": math.ceil((3 * spread / diff) ** 2) if diff else None}
+
+
+def _demand_level(values: np.ndarray, energy: np.ndarray) -> dict:
+    """The day's own demand level in the paper's measure: over the plan ~ c + b e + k e^2 in
+    the energy deviation e (least squares); k Var(e) is what a model's spread of daily
+    energy adds to the mean by the convexity of the costs, whatever the scheduler."""
+    (c, b, k), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(energy), energy, energy**2]), values, rcond=None)
+    return {"slope_percent_per_percent": float(b), "curvature": float(k),
+            "energy_deviation_std_percent": 100 * float(energy.std(ddof=1)),
+            "convexity_share_percent": 100 * float(k * energy.var(ddof=1))}
 
 
 def statistics(summaries: list[dict]) -> dict:
@@ -96,7 +111,8 @@ def statistics(summaries: list[dict]) -> dict:
         energy = np.concatenate([s["energy_deviation"] for s in mine])
         out["models"][kind] = {
             "over_plan": _mean(plan), "over_plan_controlled": _controlled(plan, energy),
-            "over_hindsight": _mean(hindsight), "unplanned_hours": int(sum(s["unplanned_hours"] for s in mine)),
+            "over_hindsight": _mean(hindsight), "demand_level": _demand_level(plan, energy),
+            "unplanned_hours": int(sum(s["unplanned_hours"] for s in mine)),
             "identified_a": [s["identified_a"] for s in mine], "plan_unit_cost": mine[0]["plan_unit_cost"],
             "seconds_per_day": float(np.mean([s["seconds_per_day"] for s in mine]))}
     if len(out["models"]) == 2:
@@ -138,6 +154,18 @@ def run_online_campaign(jobs: list[Job], executor, output, *, name: str, progres
     return stats
 
 
+def restate(path) -> dict:
+    """Recompute a written campaign's statistics from its per-day values (seed order) and
+    rewrite its .json and .txt; return the statistics."""
+    path = Path(path)
+    document = json.loads(path.read_text())
+    summaries = [document["per_day"][seed] for seed in sorted(document["per_day"], key=int)]
+    document["statistics"] = stats = statistics(summaries)
+    path.write_text(json.dumps(document, indent=1) + "\n")
+    path.with_suffix(".txt").write_text(table_text(stats, document["settings"], document["campaign"]) + "\n")
+    return stats
+
+
 def table_text(stats: dict, settings: dict, record: dict) -> str:
     lines = [f"unit commitment on-line (seed 000 part 2, section 7): {settings['fleet']}, store {settings['store']}, "
              f"random model {settings['random_model']}, fluctuation {100 * settings['std']:.2f} % std, a = "
@@ -156,4 +184,14 @@ def table_text(stats: dict, settings: dict, record: dict) -> str:
         cells = [f"{d[k]['percent']:+.4f} (z {d[k]['z']:+.1f})"
                  for k in ("over_plan", "over_plan_controlled", "over_hindsight")]
         lines.append(f"{'uniform - G-M':14s} {'':5s} {cells[0]:>22s} {cells[1]:>24s} {cells[2]:>22s}")
+        days = [d[k]["days_a_model_for_3_standard_errors"] for k in ("over_plan", "over_plan_controlled",
+                                                                     "over_hindsight")]
+        lines.append(f"{'days a model for 3 s.e. at these values':44s} {days[0]!s:>8s} {days[1]!s:>24s} "
+                     f"{days[2]!s:>22s}")
+    for kind, m in stats.get("models", {}).items():
+        level = m["demand_level"]
+        lines.append(f"{kind}: the day's energy varies {level['energy_deviation_std_percent']:.2f} % (std); over the "
+                     f"plan moves {level['slope_percent_per_percent']:.3f} % per 1 % of energy; the costs' convexity "
+                     f"adds {level['convexity_share_percent']:+.4f} % to the mean over the plan; "
+                     f"{m['seconds_per_day']:.1f} s a day")
     return "\n".join(lines)
