@@ -30,7 +30,7 @@ from hex_control.seeds.mobile_platform.simulation import tracking_figures
 BOXES = {
     "energy_index": {"gain": (30.0, 30000.0), "k": (0.3, 10.0)},
     "two_pid": {"speed_kp": (3.0, 3000.0), "speed_ki": (1.0, 30000.0), "speed_kd": (1e-4, 1.0),
-                "turn_kp": (0.1, 100.0), "turn_ki": (0.1, 1000.0), "turn_kd": (1e-4, 1.0), "k": (0.3, 10.0)},
+                "turn_kp": (1e-3, 100.0), "turn_ki": (0.1, 1000.0), "turn_kd": (1e-4, 1.0), "k": (0.3, 10.0)},
 }
 CRITERIA = ("rms_path", "itae")
 
@@ -55,9 +55,10 @@ def case_gains(case: PlatformCase, family: str) -> dict:
 
 def as_case_gains(family: str, gains: dict) -> dict:
     """The box's names back in the case file's form (energy_index: gain, k; two_pid: speed,
-    turn as [kp, ki, kd], k), rounded to 5 significant digits."""
+    turn as [kp, ki, kd], k), to 8 significant digits: the errors are a few encoder counts,
+    and 5 digits move them by a count."""
     def r(x):
-        return float(f"{x:.5g}")
+        return float(f"{x:.8g}")
 
     if family == "energy_index":
         return {"gain": r(gains["gain"]), "k": r(gains["k"])}
