@@ -187,6 +187,5 @@ def simulate_force_loop(table: ForceTable, controller, setpoint, control_period_
         command = controller.command(desired, table.measured_n)
         log["time"][k], log["setpoint"][k], log["force"][k] = t, desired, table.force_n
         log["measured"][k], log["command"][k] = table.measured_n, command
-        for _ in range(substeps):
-            table.step(command)
+        table.advance(command, substeps)
     return log
