@@ -87,12 +87,13 @@ def pass_planning(quick: bool) -> list[str]:
     passes = 3 if quick else len(DEMO_JOB)
     old = replay_demo_job(passes, baseline=True)
     new = replay_demo_job(passes, baseline=False)
-    lines = [f"the demo's job without ROS ({passes} passes, 300 mm bead): planning time per pass, old path -> new"]
+    lines = [f"the demo's job without ROS ({passes} passes, 300 mm bead): planning CPU time per pass (less load-"
+             "sensitive than wall), old path -> new"]
     for k, (a, b) in enumerate(zip(old, new)):
         depth, feed = DEMO_JOB[k][:2]
-        lines.append(f"pass {k} ({depth:.4f} mm at {feed:.2f} mm/s): {a['wall_s']:.2f} s ({a['simulations']} sim, "
-                     f"{a['points']} scan points) -> {b['wall_s']:.2f} s ({b['simulations']} sim, {b['points']} pts),"
-                     f" {a['wall_s'] / b['wall_s']:.1f}x; planned {a['planned_mm']:.4f} -> {b['planned_mm']:.4f} mm")
+        lines.append(f"pass {k} ({depth:.4f} mm at {feed:.2f} mm/s): {a['cpu_s']:.2f} CPU s ({a['simulations']} sim, "
+                     f"{a['points']} scan points) -> {b['cpu_s']:.2f} ({b['simulations']} sim, {b['points']} pts), "
+                     f"{a['cpu_s'] / b['cpu_s']:.1f}x; planned {a['planned_mm']:.4f} -> {b['planned_mm']:.4f} mm")
     total = {name: {key: sum(r[key] for r in rows) for key in ("wall_s", "cpu_s", "simulations")}
              for name, rows in (("old", old), ("new", new))}
     lines.append(f"job: {total['old']['wall_s']:.2f} s wall ({total['old']['cpu_s']:.2f} CPU s, "
