@@ -30,9 +30,15 @@ def config_file(name: str) -> Path:
 
 
 def config_path(source, folder: str = "") -> Path:
-    """``source`` if it is a file, else the shipped ``config/<folder>/<source>``."""
+    """``source`` if it is a file, else the shipped ``config/<folder>/<source>``. An absolute
+    path names the user's own file: if it is missing, say so as given, instead of looking
+    for it among the shipped files."""
     path = Path(source)
-    return path if path.is_file() else config_file(f"{folder}/{source}" if folder else str(source))
+    if path.is_file():
+        return path
+    if path.is_absolute():
+        raise FileNotFoundError(f"no file {str(source)!r}")
+    return config_file(f"{folder}/{source}" if folder else str(source))
 
 
 def node_parameters(file_name: str, node: str) -> dict:

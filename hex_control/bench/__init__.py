@@ -33,7 +33,7 @@ def best_time(function, repeat: int = 5) -> float:
 
 def run_benchmarks(names, quick: bool = False) -> int:
     for module in ("estimation", "graph", "graph_starts", "grinding", "kinematics", "loop", "milling",
-                   "mobile_platform", "plant", "sdp", "shaping", "topic_tools", "unit_commitment"):
+                   "mobile_platform", "plant", "pru3_tracking", "sdp", "shaping", "topic_tools", "unit_commitment"):
         importlib.import_module(f"hex_control.bench.{module}")  # registers its cases
 
     unknown = [n for n in names if n not in CASES]

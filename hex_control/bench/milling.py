@@ -11,10 +11,7 @@ import time
 import numpy as np
 from scipy.linalg import expm
 
-from hex_control.bench import (
-    benchmark,
-    pru3_tracking,  # noqa: F401  registers `hexctl bench pru3_tracking` (seed 001 rows)
-)
+from hex_control.bench import benchmark
 from hex_control.seeds.milling.case import ChatterCase
 from hex_control.seeds.milling.cutting import cutting_force
 from hex_control.seeds.milling.programmes import ConstantSpeed
