@@ -76,6 +76,18 @@ def main(argv=None) -> int:
         print(f"| {r['machine']} | {r['bead_mm']:g} | {r['deadline_s']:g} | {r['variant']} | {r['jobs']} ({seeds}) | "
               f"{r['within']}/{r['jobs']} | {r['worst_highest_mm']:+.3f} | {r['mean_charge']:.4f} | "
               f"{r['mean_expected_j']:.4f} | {r['charge_over_j']:.2f} | {r['ended_early_outside']} |")
+    print()
+    print("| machine | bead mm | code | jobs | mean charge | mean J at start | charge / J |")
+    print("|---|---|---|---|---|---|---|")
+    rows = defaultdict(list)
+    for key, job in jobs(args.runs):
+        variant, machine, height, _ = key
+        rows[(machine, height, variant)].append(summary(job))
+    for (machine, height, variant), items in sorted(rows.items()):
+        charge = sum(i["charge"] for i in items) / len(items)
+        expected = sum(i["expected"] for i in items) / len(items)
+        print(f"| {machine} | {height:g} | {variant} | {len(items)} | {charge:.4f} | {expected:.4f} | "
+              f"{charge / expected:.2f} |")
     return 0
 
 
