@@ -91,6 +91,17 @@ def test_report_of_a_record_writes_its_json_and_k1_plot(tmp_path):
     assert json.loads((tmp_path / "job.json").read_text())["ended_as_intended"]
     assert (tmp_path / "specific_energy.png").stat().st_size > 10_000
     assert not (tmp_path / "contours.png").exists()  # nothing recorded, nothing drawn
+    assert "outlook_at_start" not in summary  # no feedback recorded: nothing said
+
+
+def test_the_first_feedbacks_word_on_the_deadline_is_in_the_summary():
+    command = {"expected_penalty": 0.4, "deadline_reachable": False, "expected_final_material_mm": 0.2,
+               "planner_note": "deadline out of reach: ..."}
+    record = JobRecord(commands={0: command}, results={0: {"burn": False, "stall": False, "specific_energy_j_mm3": 9.0,
+                                                           "stamp_s": 10.0}},
+                       outcome={"reason": "quit", "total_charge": 0.5})
+    assert record.summary()["outlook_at_start"] == {"deadline_reachable": False, "expected_final_material_mm": 0.2,
+                                                    "planner_note": "deadline out of reach: ..."}
 
 
 def test_the_finished_parts_are_judged_by_their_worst_points_not_their_mean():

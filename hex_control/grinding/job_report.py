@@ -80,7 +80,11 @@ class JobRecord:
             self.goal.get("expected_penalty_at_start", math.nan)  # a resumed job's, from its log
         results_in_order = [i for kind, i in self.events if kind == "result"]
         quality, not_as_planned = self.part_quality, self.not_as_planned
+        # the first feedback's word on the deadline (issue 42), when the observer recorded it
+        outlook = {k: v for k, v in self.commands.get(0, {}).items()
+                   if k in ("deadline_reachable", "expected_final_material_mm", "planner_note")}
         return {"goal": self.goal, "outcome": self.outcome, "expected_penalty_at_start": start_penalty,
+                **({"outlook_at_start": outlook} if outlook else {}),
                 "part_quality": quality,
                 "part_within_tolerance": quality is not None and quality["max_deviation_mm"] <= TOLERANCE_MM,
                 "ended_as_intended": self.intended,
