@@ -1,8 +1,7 @@
-"""Node ``sequence_planner``: the top tier -- the GrindBead action, one pass at a time. The job
-logic is :class:`hex_control.grinding.sequencer.Sequencer` (what it does and checks); this node
-reads its settings, converts messages, solves policies off the executor thread and serves
-``~/grind_bead``. A goal is checked at goal response: a refused one gets REJECT, the reason in
-the log and /diagnostics. A resumed job (its client gone) reports on ``~/job_feedback``, ``~/job_result``.
+"""Node ``sequence_planner``: the GrindBead action, one pass at a time. The job logic is
+:class:`hex_control.grinding.sequencer.Sequencer`; this node reads its settings, converts messages,
+solves policies off the executor thread and serves ``~/grind_bead`` (a refused goal: REJECT, the
+reason in the log and /diagnostics; a resumed job reports on ``~/job_feedback``, ``~/job_result``).
 Out: grinding/pass_command (latched). In, each from its one node: grinding/pass_result (plant;
 REJECTED: pass_planner), grinding/contour (plant's scans), grinding/force_trajectory and
 pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3).
