@@ -197,6 +197,7 @@ class _Daemon:
         self.echoes = 0
         self.stopping = False
         self.latched: dict[str, _Latched] = {}
+        self.wake = self.node.create_guard_condition(lambda: None)
 
     def hold(self, topic: str, publishers) -> _Latched | None:
         """The held subscription of ``topic`` if its publishers are all transient local
@@ -226,6 +227,7 @@ class _Daemon:
     def on_spin_thread(self, function):
         answer: queue.Queue = queue.Queue()
         self.jobs.put((function, answer))
+        self.wake.trigger()  # the spin's wait ends now, not at its timeout
         ok, value = answer.get()
         if not ok:
             raise value
