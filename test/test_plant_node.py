@@ -348,3 +348,25 @@ def test_every_command_input_names_its_owner_by_default(ros, spawn):
         controller.publish(ForceAxisCommand(position_mm=0.3))
         return forces[-1].wrench.force.z > 15.0
     wait_until(obeyed, 10.0, interval_s=0.05, what="the force controller obeyed")
+
+
+def test_the_events_executor_is_made_where_stderr_is_captured(capsys):
+    """Issue 39: the job's observer spins on the graph's executor; rclpy's EventsExecutor
+    enables faulthandler on sys.stderr, which a captured stderr (capsys here) cannot take."""
+    import sys
+
+    import rclpy
+    from rclpy.context import Context
+
+    from hex_control.ros.infra.runtime import make_executor
+
+    context = Context()
+    rclpy.init(context=context, signal_handler_options=rclpy.SignalHandlerOptions.NO)
+    captured = sys.stderr
+    try:
+        executor = make_executor(context=context)
+        assert type(executor).__name__ == "EventsExecutor"
+        assert sys.stderr is captured
+        executor.shutdown()
+    finally:
+        context.try_shutdown()

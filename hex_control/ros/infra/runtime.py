@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import faulthandler
 import gc
+import io
 import os
 import signal
 import sys
@@ -31,11 +32,26 @@ WAIT_S = 0.1  # longest wait between two looks at the stop event
 
 
 def make_executor(context=None):
-    """The executor a node spins on: events-based unless HEX_EXECUTOR=single."""
+    """The executor a node spins on: events-based unless HEX_EXECUTOR=single.
+
+    rclpy's EventsExecutor enables faulthandler on ``sys.stderr``, which needs a file
+    descriptor: where stderr is captured without one (pytest's capsys, a notebook; the job's
+    observer runs in such processes) it is given the process's own stderr meanwhile, and
+    without that the SingleThreadedExecutor is used."""
     if os.environ.get("HEX_EXECUTOR", "events") == "single":
         return SingleThreadedExecutor(context=context)
     from rclpy.experimental import EventsExecutor
 
+    try:
+        sys.stderr.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):
+        if sys.__stderr__ is None:
+            return SingleThreadedExecutor(context=context)
+        captured, sys.stderr = sys.stderr, sys.__stderr__
+        try:
+            return EventsExecutor(context=context)
+        finally:
+            sys.stderr = captured
     return EventsExecutor(context=context)
 
 
