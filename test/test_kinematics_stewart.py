@@ -193,9 +193,9 @@ def test_fk_failures_are_reported_not_wrong_poses():
 
 def test_segment_distance_against_brute_force_sampling():
     rng = np.random.default_rng(4)
-    p1, q1, p2, q2 = rng.normal(size=(4, 300, 3))
+    p1, q1, p2, q2 = rng.normal(size=(4, 100, 3))
     exact = segment_distance(p1, q1, p2, q2)
-    s = np.linspace(0, 1, 801)[:, None]
+    s = np.linspace(0, 1, 401)[:, None]
     sampled = np.array([np.linalg.norm((a + (b - a) * s)[:, None] - (c + (d - c) * s)[None], axis=-1).min()
                         for a, b, c, d in zip(p1, q1, p2, q2)])
     assert np.all(exact <= sampled + 1e-12)
