@@ -9,6 +9,9 @@ from pathlib import Path
 # as in `make test` and the nodes (hex_control/ros/__init__.py): one OpenBLAS thread, since
 # its spinning workers slow numpy 20x on a loaded machine; effective if numpy is not loaded yet
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+# a `hexctl daemon` a test's verb starts (ros_cli/daemon.py) ends a minute after its last
+# request, not ten: the run's domains are free soon after the run
+os.environ.setdefault("HEXCTL_DAEMON_IDLE_S", "60")
 
 import pytest
 
@@ -20,7 +23,7 @@ DOMAIN_ID = run_domain_id()
 
 
 @pytest.fixture(scope="session")
-def ros_env() -> dict:
+def ros_env():
     """Environment for subprocess nodes: this run's domain, discovery on localhost only."""
     env = dict(os.environ)
     env["ROS_DOMAIN_ID"] = str(DOMAIN_ID)
@@ -28,7 +31,11 @@ def ros_env() -> dict:
     env["PYTHONUNBUFFERED"] = "1"
     env["PYTHONFAULTHANDLER"] = "1"  # a crashing node leaves its threads' tracebacks in its log
     os.environ.update({k: env[k] for k in ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE")})
-    return env
+    yield env
+    from hex_control.ros.tools.ros_cli import daemon
+
+    if daemon.connect() is not None:  # this run's daemon, if a test started one: not left behind
+        daemon.request({"op": "stop"})
 
 
 @pytest.fixture

@@ -17,11 +17,12 @@ from hex_control.ros.nodes.kinematics import KinematicsNode
 from hex_control.ros.nodes.load_predictor import LoadPredictorNode
 from hex_control.ros.nodes.pass_planner import PassPlannerNode
 from hex_control.ros.nodes.plant import PlantNode
+from hex_control.ros.nodes.robot_state import RobotStateNode
 from hex_control.ros.nodes.sequence_planner import SequencePlannerNode
 from hex_control.ros.nodes.synthetic_load import SyntheticLoadNode
 
 NODES = (ForceControllerNode, InputShaperNode, KinematicsNode, LoadPredictorNode, PassPlannerNode, PlantNode,
-         SequencePlannerNode, SyntheticLoadNode)
+         RobotStateNode, SequencePlannerNode, SyntheticLoadNode)
 NUMBERS = (ParameterType.PARAMETER_DOUBLE, ParameterType.PARAMETER_INTEGER)
 
 

@@ -15,6 +15,7 @@ from std_msgs.msg import Float64
 
 from hex_control.grinding.part_quality import part_quality
 from hex_control.plant.pass_monitor import PassReport, ScheduledPass
+from hex_control.ros.infra.diagnostics import CLOCK_QOS
 from hex_control.ros.infra.interfaces import STREAM, TELEMETRY, part_quality_message, stamp_s, time_msg
 from hex_control_msgs.msg import ForceTrajectory, PassResult, PlantTelemetry
 
@@ -83,7 +84,7 @@ class PlantStreams:
         self.clock_period_s, self.telemetry_period_s = clock_period_s, telemetry_period_s
         self.next_clock_s = 0.0
         self.telemetry = []  # (time s, measured N, true N, table mm, deflection mm, x mm, H mm, lengths m)
-        self.clock = node.create_publisher(Clock, "clock", 10)  # /clock, or the cell's under its namespace
+        self.clock = node.create_publisher(Clock, "clock", CLOCK_QOS)  # /clock, or the cell's under its namespace
         self.wrench = node.create_publisher(WrenchStamped, "plant/wrench", 100)
         # transient-local: a late joiner (a logger, a test) still gets the last 1000 states
         self.truth = node.create_publisher(WrenchStamped, "plant/true_wrench", QoSProfile(

@@ -24,6 +24,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from hex_control.recording.bag import BagWriter, bag_info, read_messages
 from hex_control.recording.playback import paced, parse_remaps
+from hex_control.ros.infra.diagnostics import CLOCK_QOS
 from hex_control.ros.infra.messages import message_class
 
 DISCOVERY_PERIOD_S = 0.5
@@ -167,7 +168,7 @@ def play(directory: str, rate: float, topics=None, wait_s: float = 0.0, loop: bo
         if topics is None or meta["name"] in topics:
             publishers[meta["name"]] = node.create_publisher(message_class(meta["type"]),
                                                              remapped.get(meta["name"], meta["name"]), qos)
-    clock = node.create_publisher(Clock, "/clock", 10) if clock_hz else None
+    clock = node.create_publisher(Clock, "/clock", CLOCK_QOS) if clock_hz else None
 
     def tick(time_ns: int) -> None:
         clock.publish(Clock(clock=Time(sec=time_ns // 1_000_000_000, nanosec=time_ns % 1_000_000_000)))
