@@ -166,3 +166,77 @@ def test_the_bead_outline_runs_along_the_contour_and_back_along_its_parent():
                 ([0.0, 1.0], [1.0, 1.0], [0.0])):
         with pytest.raises(ValueError):
             bead_outline_m(*bad)
+
+
+def _batch(positions_mm, names, start_s=0.0, period_s=0.001, **changes):
+    """A telemetry batch as the plant sends it (lengths m, row-major), fields replaced by ``changes``."""
+    n = len(positions_mm)
+    batch = {"time_s": list(start_s + period_s * np.arange(n)), "strut_names": list(names),
+             "strut_lengths_m": (np.asarray(positions_mm) * MM).ravel().tolist(), "deflection_mm": [0.0] * n}
+    return batch | changes
+
+
+def test_telemetry_batches_are_checked_before_any_work_and_the_timeline_goes_on():
+    """Threat model (docs/graph.md): a malformed batch is refused whole (sizes, names, stamps);
+    a jump back or ahead is taken only once the next batch confirms it (a restarted plant)."""
+    from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES, RobotTelemetry, TelemetryRefused
+
+    machine, frame = _machine("nist_ingersoll.yaml")
+    core = RobotTelemetry(robot_model(machine, frame))
+    path, names = _path(machine, frame, samples=4), machine.joint_names
+    placed = core.place(**_batch(path, names, start_s=1.0))
+    assert [t for t, _ in placed.states] == [1.003] and not placed.failures  # the last sample only
+    lengths = (path * MM).ravel().tolist()
+    malformed = {"empty": {"time_s": [], "deflection_mm": [], "strut_lengths_m": []},
+                 "one length short": {"strut_lengths_m": lengths[:-1]},
+                 "deflections short": {"deflection_mm": [0.0] * 3},
+                 "names not the machine's": {"strut_names": list(reversed(names))},
+                 "NaN stamp": {"time_s": [1.1, math.nan, 1.2, 1.3]},
+                 "inf stamp": {"time_s": [1.1, 1.2, 1.3, math.inf]},
+                 "negative stamp": {"time_s": [-1.0, -0.9, -0.8, -0.7]},
+                 "beyond a ROS stamp": {"time_s": [1.1, 1.2, 1.3, 1e12]},
+                 "back inside the batch": {"time_s": [1.1, 1.3, 1.2, 1.4]},
+                 "huge": {"time_s": [1.1] * (MAX_BATCH_SAMPLES + 1)}}
+    for what, change in malformed.items():
+        with pytest.raises(TelemetryRefused, match=r"samples|arrays|stamps") as refused:
+            core.place(**_batch(path, names, start_s=1.1) | change)
+        assert refused.value.counter == "rejected_telemetry", what
+    # NaN lengths or deflection: that sample has no frames, the batch's others do
+    core.every_sample = True
+    placed = core.place(**_batch(path, names, start_s=1.1, deflection_mm=[0.0, math.nan, 0.0, 0.0]))
+    assert len(placed.states) == 3 and [t for t, _ in placed.failures] == [1.101]
+    core.every_sample = False
+    # one forged batch in the past or the future moves nothing; the plant's next one is placed
+    for forged_s in (0.5, 1e6):
+        with pytest.raises(TelemetryRefused, match="does not go on") as refused:
+            core.place(**_batch(path, names, start_s=forged_s))
+        assert refused.value.counter == "stale_telemetry"
+        assert core.timeline.last_s == pytest.approx(1.103)
+    assert core.place(**_batch(path, names, start_s=1.2)).states
+    # a restarted plant (time from 0 again): its first batch waits, its second confirms it
+    with pytest.raises(TelemetryRefused):
+        core.place(**_batch(path, names, start_s=0.0))
+    assert [t for t, _ in core.place(**_batch(path, names, start_s=0.1)).states] == [pytest.approx(0.103)]
+    # before the plant's first strut command there are no lengths: nothing to place, no refusal
+    assert core.place(**_batch(path, names, start_s=0.2, strut_lengths_m=[])).states == []
+
+
+def test_an_enormous_contour_is_refused_before_conversion_and_a_long_one_drawn_bounded():
+    """10^6 points (a forged scan) are refused on their size alone; 50,000 are drawn with at
+    most MAX_OUTLINE_POINTS vertices a side, the ends kept."""
+    from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS, bead_outline_m
+
+    class Huge:  # a sequence whose elements must never be read
+        def __len__(self):
+            return 10**6
+
+        def __iter__(self):
+            raise AssertionError("converted before the size check")
+
+    with pytest.raises(ValueError, match=str(MAX_CONTOUR_POINTS)):
+        bead_outline_m(Huge(), Huge(), Huge())
+    x = np.linspace(0.0, 60.0, 50_000)
+    points = bead_outline_m(x, 0.8 * np.sin(x), np.full_like(x, 0.1))
+    assert len(points) == 2 * MAX_OUTLINE_POINTS
+    np.testing.assert_allclose(points[[0, MAX_OUTLINE_POINTS - 1, -1], 0] / MM, [0.0, 60.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(points[0, 2] / MM, 0.1, atol=1e-12)

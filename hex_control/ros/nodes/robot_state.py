@@ -10,14 +10,16 @@ rad) and ``tf`` (base -> platform, spindle -> disk, the struts' links), stamped 
 plant's sim time of that sample; per scan ``grinding/bead_outline`` (geometry_msgs/
 PolygonStamped in frame ``bead``, latched: the bead's cross-section along its length, so that
 a recording shows the workpiece in 3-D). Names are relative: under a cell's namespace they
-are the cell's. In: ``plant/telemetry``, ``grinding/contour``. Frames and units: the model
-module's docstring (REP 103). ``/diagnostics``: ``states`` published, ``no_frames`` samples it
-could not place, ``rejected_contours``.
+are the cell's. In: ``plant/telemetry``, ``grinding/contour``, each obeyed from its owner
+(the plant) alone; the batches checked by :mod:`hex_control.kinematics.robot_telemetry`, the
+contours by :mod:`hex_control.grinding.bead_outline` (docs/graph.md, threat model). Frames and
+units: the model module's docstring (REP 103). ``/diagnostics``: ``states`` published,
+``no_frames`` samples it could not place, ``rejected_telemetry`` (malformed batches),
+``stale_telemetry`` (off the timeline), ``rejected_contours``, ``foreign_*`` and ``lost_*``.
 """
 
 from __future__ import annotations
 
-import numpy as np
 from geometry_msgs.msg import Point32, PolygonStamped, TransformStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -30,8 +32,10 @@ from hex_control.grinding.bead_outline import bead_outline_m
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.kinematics import load_machine
 from hex_control.kinematics.robot_model import FrameTransform, robot_model
+from hex_control.kinematics.robot_telemetry import RobotTelemetry, TelemetryRefused
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, TELEMETRY, time_msg
+from hex_control.ros.infra.message_info import FOREIGN_WARN_S, info_subscription
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import run_node
@@ -41,6 +45,8 @@ PARAMETERS = {
     "machine_file": Spec(str(config_file(DEFAULT_MACHINE_FILE)), "machine YAML (config/machines/); the plant's"),
     "pass_planner_config": Spec("pass_planner.yaml", "bead frame and disk of the workpiece (the plant's)"),
     "every_sample": Spec(False, "frames for every control period of a telemetry batch, not only its last"),
+    "telemetry_owner": Spec("plant", "node whose telemetry places the machine; '' = the first heard (hand use)"),
+    "contour_owner": Spec("plant", "node whose contours are drawn; '' = the first heard (hand use)"),
 }
 #: tf2's own profile for /tf_static: every late joiner gets the whole static tree
 TF_STATIC = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -65,8 +71,8 @@ class RobotStateNode(Node):
         machine, document = load_machine(p("machine_file"))
         config = load_pass_planner_config(p("pass_planner_config"), document)
         self.model = robot_model(machine, config.frame, disk_radius_mm=config.model.process.disk_radius_mm)
-        self.every_sample = p("every_sample")
-        self.diagnostics = Diagnostics(self)  # counts samples it could not place (no_frames), and states published
+        self.core = RobotTelemetry(self.model, every_sample=p("every_sample"))
+        self.diagnostics = Diagnostics(self)
         self.description = self.create_publisher(String, "robot_description", LATCHED)
         self.static = self.create_publisher(TFMessage, "tf_static", TF_STATIC)
         self.tf = self.create_publisher(TFMessage, "tf", 100)
@@ -75,16 +81,23 @@ class RobotStateNode(Node):
         self.static.publish(TFMessage(transforms=[transform_message(t, time_msg(0.0))
                                                   for t in self.model.static_transforms()]))
         self.outline = self.create_publisher(PolygonStamped, "grinding/bead_outline", LATCHED)
-        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
-        self.create_subscription(Contour, "grinding/contour", self._on_contour, LATCHED)
+        for msg_type, topic, callback, name, qos in (
+                (PlantTelemetry, "plant/telemetry", self._on_telemetry, "telemetry", TELEMETRY),
+                (Contour, "grinding/contour", self._on_contour, "contour", LATCHED)):
+            info_subscription(self, msg_type, topic, callback, qos, diagnostics=self.diagnostics, name=name,
+                              owner_node=p(f"{name}_owner"))
+
+    def _refused(self, counter: str, message: str) -> None:
+        self.diagnostics.count(counter)
+        self.diagnostics.fault(counter, message, hold_s=FOREIGN_WARN_S)
+        self.get_logger().warning(message, throttle_duration_sec=5.0)
 
     def _on_contour(self, msg: Contour) -> None:
         """The scanned bead as a closed outline in the bead frame: a recording shows it in 3-D."""
         try:
             points = bead_outline_m(msg.x_mm, msg.z_mm, msg.parent_mm)
         except ValueError as error:
-            self.diagnostics.count("rejected_contours")
-            self.get_logger().warning(f"no bead outline: {error}", throttle_duration_sec=5.0)
+            self._refused("rejected_contours", f"contour refused: {error}")
             return
         outline = PolygonStamped()
         outline.header.stamp, outline.header.frame_id = msg.header.stamp, "bead"
@@ -92,21 +105,18 @@ class RobotStateNode(Node):
         self.outline.publish(outline)
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
-        samples, joints = len(msg.time_s), len(msg.strut_names)
-        if not samples or not joints or len(msg.strut_lengths_m) != samples * joints \
-                or len(msg.deflection_mm) != samples:
-            return  # before the first strut command the plant has no joint positions
-        lengths_m = np.asarray(msg.strut_lengths_m, float).reshape(samples, joints)
-        for k in range(samples) if self.every_sample else (samples - 1,):
-            try:  # the plant's arrays are in the machine's joint order; its positions in m
-                state = self.model.state(lengths_m[k] * 1000.0, msg.deflection_mm[k])
-            except ValueError as error:  # forward kinematics found no pose (or a malformed sample)
-                self.diagnostics.count("no_frames")
-                self.get_logger().warning(f"no frames for t = {msg.time_s[k]:.3f} s: {error}",
-                                          throttle_duration_sec=5.0)
-                continue
+        try:
+            placed = self.core.place(time_s=msg.time_s, strut_names=msg.strut_names,
+                                     strut_lengths_m=msg.strut_lengths_m, deflection_mm=msg.deflection_mm)
+        except TelemetryRefused as error:
+            self._refused(error.counter, f"telemetry refused: {error}")
+            return
+        for time_s, error in placed.failures:
+            self.diagnostics.count("no_frames")
+            self.get_logger().warning(f"no frames for t = {time_s:.3f} s: {error}", throttle_duration_sec=5.0)
+        for time_s, state in placed.states:
             self.diagnostics.count("states")
-            stamp = time_msg(msg.time_s[k])
+            stamp = time_msg(time_s)
             joint_state = JointState(name=state.joint_names, position=state.joint_positions)
             joint_state.header.stamp = stamp
             self.joints.publish(joint_state)
