@@ -82,6 +82,10 @@ def test_the_views_channels_carry_the_pass_table_forces_and_bead(ros, tmp_path):
     (["--port", "70000"], "--port must be 0..65535"),
     (["--host", "nonsense.invalid"], "cannot serve on nonsense.invalid:8765"),
     (["--namespace", "not a name"], "namespace"),
+    (["--duration", "nan"], "--duration must be a finite"),  # NaN compared false with 0: it served for ever
+    (["--duration", "inf"], "--duration must be a finite"),
+    (["--duration", "-1"], "--duration must be a finite"),
+    (["--host", " "], "--host must name an address"),
 ])
 def test_bad_view_options_are_one_line_and_exit_2(capsys, arguments, message):
     from hex_control.cli import main
@@ -89,3 +93,36 @@ def test_bad_view_options_are_one_line_and_exit_2(capsys, arguments, message):
     assert main(["view", *arguments]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounded(ros, tmp_path):
+    """Threat model (docs/graph.md): the view's work per message stays bounded. A contour
+    beyond the pass planner's limit, one with mismatched arrays and a batch beyond the
+    plant's limit are refused (counted, WARN); 50,000 points draw at most MAX_OUTLINE_POINTS
+    vertices a line (the whole contour still on its JSON channel)."""
+    from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS
+    from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES
+
+    context = foxglove.Context()
+    path = tmp_path / "view.mcap"
+    writer = foxglove.open_mcap(path, context=context)
+    view = ros.add(FoxgloveView(context, context=ros.context))
+    huge = [0.0] * (MAX_CONTOUR_POINTS + 1)
+    view._on_contour(Contour(x_mm=huge, z_mm=huge))
+    view._on_contour(Contour(x_mm=[0.0, 1.0], z_mm=[0.0, 1.0], parent_mm=[0.0]))
+    view._on_telemetry(PlantTelemetry(time_s=[0.0] * (MAX_BATCH_SAMPLES + 1)))
+    assert view.diagnostics.counters["rejected_contour"] == 2 and view.diagnostics.counters["rejected_telemetry"] == 1
+    assert view.last_contour is None and view.diagnostics.summary()[1].count("refused") == 2
+    x = [60.0 * i / 49_999 for i in range(50_000)]
+    view._on_contour(Contour(x_mm=x, z_mm=[0.5] * len(x)))
+    view.republish()
+    writer.close()
+    scenes, contours = [], []
+    with open(path, "rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            if channel.topic == "/scene/bead":
+                scenes.append(_decoder(schema).FromString(message.data))
+            contours += [json.loads(message.data)] if channel.topic == "/grinding/contour" else []
+    assert len(scenes) == 2 and len(contours) == 2 and len(contours[-1]["x_mm"]) == 50_000
+    for line in scenes[-1].entities[0].lines:
+        assert len(line.points) == MAX_OUTLINE_POINTS and (line.points[0].x, line.points[-1].x) == (0.0, 0.06)

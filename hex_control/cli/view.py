@@ -21,8 +21,10 @@ def _view(args) -> int:
 
     if not 0 <= args.port <= 65535:
         raise ValueError(f"--port must be 0..65535, got {args.port}")
-    if args.duration < 0:
-        raise ValueError("--duration must be >= 0")
+    if not 0 <= args.duration < float("inf"):  # NaN too: it would serve for ever
+        raise ValueError(f"--duration must be a finite number of seconds >= 0, got {args.duration}")
+    if not args.host.strip():
+        raise ValueError("--host must name an address, e.g. 127.0.0.1")
     namespace = validated_namespace(args.namespace)
     from hex_control.ros.app.foxglove_view import serve
 

@@ -16,6 +16,13 @@ MAX_CONTOUR_POINTS = 100_000  # as hex_control.ros.infra.interfaces: what a scan
 MAX_OUTLINE_POINTS = 2_000  # vertices per side of the outline (the shipped scans have fewer)
 
 
+def spaced_indices(n: int, max_points: int) -> np.ndarray:
+    """All ``n`` indices, or at most ``max_points`` (>= 2) evenly spaced ones, first and last kept."""
+    if n <= max_points:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, max_points).round().astype(int))
+
+
 def bead_outline_m(x_mm, z_mm, parent_mm=(), *, max_points: int = MAX_OUTLINE_POINTS) -> np.ndarray:
     """(2n, 3) points (m): the contour's top (the height above the parent plus the parent),
     then the parent surface in reverse; an empty ``parent_mm`` is a flat parent at 0. Beyond
@@ -31,9 +38,8 @@ def bead_outline_m(x_mm, z_mm, parent_mm=(), *, max_points: int = MAX_OUTLINE_PO
         raise ValueError("x, z and parent must be flat arrays")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(z)) and np.all(np.isfinite(parent))):
         raise ValueError("the contour must be finite")
-    if len(x) > max_points:
-        keep = np.unique(np.linspace(0, len(x) - 1, max_points).round().astype(int))
-        x, z, parent = x[keep], z[keep], parent[keep]
+    keep = spaced_indices(len(x), max_points)
+    x, z, parent = x[keep], z[keep], parent[keep]
     top = np.column_stack([x, np.zeros_like(x), z + parent])
     bottom = np.column_stack([x, np.zeros_like(x), parent])[::-1]
     return np.vstack([top, bottom]) * MM

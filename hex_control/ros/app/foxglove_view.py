@@ -18,6 +18,15 @@ stamped with the cell's sim time (the timeline is the header stamps', not receiv
   /pass_table               JSON {rows: [...]}: per pass the decision (X, K1, cut, F_N, V_f, J) and
                             the measured result (Table panel)
 
+Every input is obeyed from its source alone (docs/graph.md, threat model): the frames and
+the URDF from robot_state, telemetry and contours from the plant, pass commands from the
+sequence planner, results from the plant and the pass planner; the others are counted
+(``foreign_*`` on ``/diagnostics``, node ``foxglove_view``) and named in a WARN. A contour
+beyond the pass planner's point limit or a telemetry batch beyond the plant's is refused
+(``rejected_*``), and a scene line has at most ``MAX_OUTLINE_POINTS`` vertices: the work per
+message and per second's republish stays bounded. A client that stops reading loses its
+own messages (the SDK's per-client queue), not anyone else's.
+
 The names and shapes match the demo's recording (MCAP, ROS 2 messages), so that
 ``config/foxglove/hex_control.json`` (the shipped layout) shows both. Static content (the
 static frames, the URDF and its scene, the bead, the pass table) is logged again every
@@ -56,8 +65,12 @@ from rclpy.node import Node
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
+from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS, spaced_indices
 from hex_control.kinematics.robot_model import MM, urdf_visuals
+from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES
+from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS, TELEMETRY
+from hex_control.ros.infra.message_info import FOREIGN_WARN_S, info_subscription
 from hex_control.ros.nodes.robot_state import TF_STATIC
 from hex_control_msgs.msg import Contour, PassCommand, PassResult, PlantTelemetry
 
@@ -73,6 +86,10 @@ TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties"
 CHANNEL_TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/scene/force",
                   "/plant/wrench", "/plant/true_wrench", "/grinding/contour", "/pass_table")
 FORCE_SCALE_M_PER_N = 1e-3  # the force arrow: 1 mm per N (60 N, F_max, is 60 mm)
+#: the node(s) each input is obeyed from, relative to the cell's namespace (as the cell's nodes obey them)
+OWNERS = {"tf": "robot_state", "tf_static": "robot_state", "robot_description": "robot_state",
+          "plant/telemetry": "plant", "grinding/contour": "plant", "grinding/pass_command": "sequence_planner",
+          "grinding/pass_result": ("plant", "pass_planner")}
 STATUS = {PassResult.COMPLETED: "completed", PassResult.ABORTED: "aborted", PassResult.REJECTED: "rejected",
           PassResult.FAULTED: "faulted"}
 
@@ -134,10 +151,11 @@ def force_scene(force_n: float, stamp: Timestamp) -> SceneUpdate:
 def bead_scene(contour: Contour, first: Contour | None, stamp: Timestamp) -> SceneUpdate:
     """The contour (orange), the parent surface (grey) and the bead as first scanned (faint),
     in the bead frame (x along, z up; m)."""
-    def line(x_mm, z_mm, rgba, thickness):
+    def line(x_mm, z_mm, rgba, thickness):  # at most MAX_OUTLINE_POINTS vertices, the ends kept
+        keep = spaced_indices(len(x_mm), MAX_OUTLINE_POINTS)
         return LinePrimitive(thickness=thickness, scale_invariant=True, color=Color(r=rgba[0], g=rgba[1], b=rgba[2],
                                                                                     a=rgba[3]),
-                             points=[Point3(x=x * MM, y=0.0, z=z * MM) for x, z in zip(x_mm, z_mm)])
+                             points=[Point3(x=x_mm[i] * MM, y=0.0, z=z_mm[i] * MM) for i in keep])
     parent = list(contour.parent_mm) or [0.0] * len(contour.x_mm)
     # heights are above the parent surface's datum: the contour drawn on top of the parent
     lines = [line(contour.x_mm, [z + p for z, p in zip(contour.z_mm, parent)], (1.0, 0.55, 0.1, 1.0), 3.0),
@@ -169,13 +187,21 @@ class FoxgloveView(Node):
         self.static_msg = self.urdf = self.first_contour = self.last_contour = None
         self.time_ns = 0  # the cell's sim time, as far as heard
         self.rows: dict[tuple[str, int], dict] = {}
-        self.create_subscription(TFMessage, "tf", self._on_tf, 100)
-        self.create_subscription(TFMessage, "tf_static", self._on_tf_static, TF_STATIC)
-        self.create_subscription(String, "robot_description", self._on_description, LATCHED)
-        self.create_subscription(PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY)
-        self.create_subscription(Contour, "grinding/contour", self._on_contour, LATCHED)
-        self.create_subscription(PassCommand, "grinding/pass_command", self._on_command, LATCHED)
-        self.create_subscription(PassResult, "grinding/pass_result", self._on_result, RESULTS)
+        self.diagnostics = Diagnostics(self)
+        for msg_type, topic, callback, qos in (
+                (TFMessage, "tf", self._on_tf, 100), (TFMessage, "tf_static", self._on_tf_static, TF_STATIC),
+                (String, "robot_description", self._on_description, LATCHED),
+                (PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY),
+                (Contour, "grinding/contour", self._on_contour, LATCHED),
+                (PassCommand, "grinding/pass_command", self._on_command, LATCHED),
+                (PassResult, "grinding/pass_result", self._on_result, RESULTS)):
+            info_subscription(self, msg_type, topic, callback, qos, diagnostics=self.diagnostics,
+                              name=topic.rsplit("/", 1)[-1], owner_node=OWNERS[topic])
+
+    def _refused(self, name: str, message: str) -> None:
+        self.diagnostics.count(f"rejected_{name}")
+        self.diagnostics.fault(f"rejected_{name}", message, hold_s=FOREIGN_WARN_S)
+        self.get_logger().warning(message, throttle_duration_sec=10.0)
 
     def _on_tf(self, msg: TFMessage) -> None:
         if msg.transforms:
@@ -199,6 +225,9 @@ class FoxgloveView(Node):
             self.get_logger().warning(f"robot_description: {error}", throttle_duration_sec=10.0)
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
+        if len(msg.time_s) > MAX_BATCH_SAMPLES:
+            self._refused("telemetry", f"telemetry of {len(msg.time_s)} samples refused (at most {MAX_BATCH_SAMPLES})")
+            return
         for k, time_s in enumerate(msg.time_s):
             ns = _ns(time_s)
             header = {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": "tool"}
@@ -214,6 +243,10 @@ class FoxgloveView(Node):
                                                                           nsec=ns % 1_000_000_000)), log_time=ns)
 
     def _on_contour(self, msg: Contour) -> None:
+        if not len(msg.x_mm) == len(msg.z_mm) <= MAX_CONTOUR_POINTS or len(msg.parent_mm) not in (0, len(msg.x_mm)):
+            self._refused("contour", f"contour of {len(msg.x_mm)} points refused (at most {MAX_CONTOUR_POINTS}, "
+                          "x, z and parent alike)")
+            return
         if self.first_contour is None or msg.pass_index == 0:
             self.first_contour = msg
         self.last_contour = msg
