@@ -97,9 +97,9 @@ def test_bad_view_options_are_one_line_and_exit_2(capsys, arguments, message):
 
 def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounded(ros, tmp_path):
     """Threat model (docs/graph.md): the view's work per message stays bounded. A contour
-    beyond the pass planner's limit, one with mismatched arrays and a batch beyond the
-    plant's limit are refused (counted, WARN); 50,000 points draw at most MAX_OUTLINE_POINTS
-    vertices a line (the whole contour still on its JSON channel)."""
+    beyond the pass planner's limit, one with mismatched arrays, a batch beyond the plant's
+    limit and batches whose stamps are no ROS stamps are refused (counted, WARN); 50,000
+    points are drawn and sent (every second) as MAX_OUTLINE_POINTS, the ends kept."""
     from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS
     from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES
 
@@ -111,7 +111,9 @@ def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounde
     view._on_contour(Contour(x_mm=huge, z_mm=huge))
     view._on_contour(Contour(x_mm=[0.0, 1.0], z_mm=[0.0, 1.0], parent_mm=[0.0]))
     view._on_telemetry(PlantTelemetry(time_s=[0.0] * (MAX_BATCH_SAMPLES + 1)))
-    assert view.diagnostics.counters["rejected_contour"] == 2 and view.diagnostics.counters["rejected_telemetry"] == 1
+    view._on_telemetry(PlantTelemetry(time_s=[1.0, math.nan], measured_force_n=[1.0, 2.0]))  # it ended the view
+    view._on_telemetry(PlantTelemetry(time_s=[math.inf], measured_force_n=[1.0]))
+    assert view.diagnostics.counters["rejected_contour"] == 2 and view.diagnostics.counters["rejected_telemetry"] == 3
     assert view.last_contour is None and view.diagnostics.summary()[1].count("refused") == 2
     x = [60.0 * i / 49_999 for i in range(50_000)]
     view._on_contour(Contour(x_mm=x, z_mm=[0.5] * len(x)))
@@ -123,6 +125,7 @@ def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounde
             if channel.topic == "/scene/bead":
                 scenes.append(_decoder(schema).FromString(message.data))
             contours += [json.loads(message.data)] if channel.topic == "/grinding/contour" else []
-    assert len(scenes) == 2 and len(contours) == 2 and len(contours[-1]["x_mm"]) == 50_000
+    assert len(scenes) == 2 and len(contours) == 2 and len(contours[-1]["x_mm"]) == MAX_OUTLINE_POINTS
+    assert contours[-1]["x_mm"][-1] == 60.0 and contours[-1]["parent_mm"] == []
     for line in scenes[-1].entities[0].lines:
         assert len(line.points) == MAX_OUTLINE_POINTS and (line.points[0].x, line.points[-1].x) == (0.0, 0.06)

@@ -45,6 +45,18 @@ class Placed:
     failures: list[tuple[float, str]]
 
 
+def checked_stamps(time_s, max_samples: int = MAX_BATCH_SAMPLES) -> np.ndarray:
+    """A batch's sample times (s): 1 to ``max_samples`` of them, finite, within 0 .. 2^31 s
+    (a ROS stamp) and in order; TelemetryRefused (``rejected_telemetry``) otherwise."""
+    if not 1 <= len(time_s) <= max_samples:  # the size first: nothing is converted before it is known
+        raise TelemetryRefused("rejected_telemetry", f"{len(time_s)} samples (1 to {max_samples})")
+    times = np.asarray(time_s, float)
+    if not (times.ndim == 1 and np.all(np.isfinite(times)) and times[0] >= 0.0 and times[-1] <= MAX_STAMP_S
+            and np.all(np.diff(times) >= 0.0)):
+        raise TelemetryRefused("rejected_telemetry", "stamps must be finite, within 0 .. 2^31 s and in order")
+    return times
+
+
 class Timeline:
     """Stamps that go on from batch to batch; a jump back or far ahead is taken only when the
     next batch confirms it (continues from where the jump went)."""
@@ -89,10 +101,7 @@ class RobotTelemetry:
             raise TelemetryRefused("rejected_telemetry", f"arrays of {samples} samples of {len(strut_names)} struts "
                                    f"({len(strut_lengths_m)} lengths, {len(deflection_mm)} deflections) for the "
                                    f"machine's {joints} joints {self.joint_names}")
-        times = np.asarray(time_s, float)
-        if not (np.all(np.isfinite(times)) and times[0] >= 0.0 and times[-1] <= MAX_STAMP_S
-                and np.all(np.diff(times) >= 0.0)):
-            raise TelemetryRefused("rejected_telemetry", "stamps must be finite, within 0 .. 2^31 s and in order")
+        times = checked_stamps(time_s, self.max_samples)
         if not self.timeline.accept(float(times[0]), float(times[-1])):
             raise TelemetryRefused("stale_telemetry", f"batch at {times[0]:.3f} s does not go on from "
                                    f"{self.timeline.last_s:.3f} s (taken if the next one confirms it)")

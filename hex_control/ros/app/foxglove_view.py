@@ -14,7 +14,8 @@ stamped with the cell's sim time (the timeline is the header stamps', not receiv
                             arrow along the tool's z, 1 mm per N (each telemetry batch's last sample)
   /plant/wrench             JSON shaped like geometry_msgs/WrenchStamped: the measured normal force
   /plant/true_wrench        the same for the true force (both from the plant's telemetry samples)
-  /grinding/contour         JSON shaped like hex_control_msgs/Contour (plot z_mm against x_mm)
+  /grinding/contour         JSON shaped like hex_control_msgs/Contour (plot z_mm against x_mm; a
+                            long one at MAX_OUTLINE_POINTS evenly spaced points)
   /pass_table               JSON {rows: [...]}: per pass the decision (X, K1, cut, F_N, V_f, J) and
                             the measured result (Table panel)
 
@@ -22,10 +23,11 @@ Every input is obeyed from its source alone (docs/graph.md, threat model): the f
 the URDF from robot_state, telemetry and contours from the plant, pass commands from the
 sequence planner, results from the plant and the pass planner; the others are counted
 (``foreign_*`` on ``/diagnostics``, node ``foxglove_view``) and named in a WARN. A contour
-beyond the pass planner's point limit or a telemetry batch beyond the plant's is refused
-(``rejected_*``), and a scene line has at most ``MAX_OUTLINE_POINTS`` vertices: the work per
-message and per second's republish stays bounded. A client that stops reading loses its
-own messages (the SDK's per-client queue), not anyone else's.
+beyond the pass planner's point limit, a telemetry batch beyond the plant's or with stamps
+that are no ROS stamps is refused (``rejected_*``), and a scene line and the contour
+channel have at most ``MAX_OUTLINE_POINTS`` points: the work per message and per second's republish stays
+bounded. A client that stops reading loses its own messages (the SDK's per-client queue),
+not anyone else's.
 
 The names and shapes match the demo's recording (MCAP, ROS 2 messages), so that
 ``config/foxglove/hex_control.json`` (the shipped layout) shows both. Static content (the
@@ -67,7 +69,7 @@ from tf2_msgs.msg import TFMessage
 
 from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS, spaced_indices
 from hex_control.kinematics.robot_model import MM, urdf_visuals
-from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES
+from hex_control.kinematics.robot_telemetry import TelemetryRefused, checked_stamps
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS, TELEMETRY
 from hex_control.ros.infra.message_info import FOREIGN_WARN_S, info_subscription
@@ -225,8 +227,10 @@ class FoxgloveView(Node):
             self.get_logger().warning(f"robot_description: {error}", throttle_duration_sec=10.0)
 
     def _on_telemetry(self, msg: PlantTelemetry) -> None:
-        if len(msg.time_s) > MAX_BATCH_SAMPLES:
-            self._refused("telemetry", f"telemetry of {len(msg.time_s)} samples refused (at most {MAX_BATCH_SAMPLES})")
+        try:  # a NaN stamp ended the view (no integer nanoseconds): refused with the batch, as robot_state does
+            checked_stamps(msg.time_s)
+        except TelemetryRefused as error:
+            self._refused("telemetry", f"telemetry refused: {error}")
             return
         for k, time_s in enumerate(msg.time_s):
             ns = _ns(time_s)
@@ -256,8 +260,11 @@ class FoxgloveView(Node):
         msg = self.last_contour
         stamp = Timestamp(sec=self.time_ns // 1_000_000_000, nsec=self.time_ns % 1_000_000_000)
         self.bead.log(bead_scene(msg, self.first_contour, stamp), log_time=self.time_ns)
-        self.contour.log({"job_id": msg.job_id, "pass_index": msg.pass_index, "x_mm": list(msg.x_mm),
-                          "z_mm": list(msg.z_mm), "parent_mm": list(msg.parent_mm)}, log_time=self.time_ns)
+        keep = spaced_indices(len(msg.x_mm), MAX_OUTLINE_POINTS).tolist()  # a plot's worth, sent every second
+        self.contour.log({"job_id": msg.job_id, "pass_index": msg.pass_index, "x_mm": [msg.x_mm[i] for i in keep],
+                          "z_mm": [msg.z_mm[i] for i in keep],
+                          "parent_mm": [msg.parent_mm[i] for i in keep] if len(msg.parent_mm) else []},
+                         log_time=self.time_ns)
 
     def _row(self, job_id: str, pass_index: int) -> dict:
         return self.rows.setdefault((job_id, pass_index), {"job": job_id, "pass": pass_index})
