@@ -93,8 +93,7 @@ class JobObserver(Node):
                 (PassCommand, "grinding/pass_command", self._on_command, RESULTS, "sequence_planner"),
                 # the planner's feedback carries every command too, kept for late joiners: a command
                 # topic holds only its last, which a restarted planner may have replaced before it matched
-                (GrindBead.Feedback, "sequence_planner/job_feedback",
-                 lambda feedback: self._on_command(feedback.command), RESULTS, "sequence_planner"),
+                (GrindBead.Feedback, "sequence_planner/job_feedback", self._on_feedback, RESULTS, "sequence_planner"),
                 (PassResult, "grinding/pass_result", self._on_result, RESULTS, ("plant", "pass_planner")),
                 (ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, RESULTS, "pass_planner"),
                 (PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY, "plant"),
@@ -133,10 +132,20 @@ class JobObserver(Node):
             if int(msg.pass_index) not in self.record.commands:
                 self.record.events.append(("command", int(msg.pass_index)))
             self.record.commands[int(msg.pass_index)] = {
+                **self.record.commands.get(int(msg.pass_index), {}),  # the feedback's outlook, if heard
                 "force_n": msg.normal_force_n, "feed_mm_s": msg.feed_speed_mm_s, "cut_depth_mm": msg.cut_depth_mm,
                 "specific_energy_j_mm3": msg.specific_energy_j_mm3, "material_mm": msg.material_remaining_mm,
                 "time_remaining_s": msg.time_remaining_s,
                 "expected_penalty": msg.expected_penalty, "duration_s": msg.pass_duration_s}
+
+    def _on_feedback(self, msg) -> None:
+        """GrindBead feedback: its command, and the planner's outlook for the job (issue 42)."""
+        self._on_command(msg.command)
+        k = int(msg.command.pass_index)
+        if self._mine(msg.command.job_id) and k in self.record.commands:
+            self.record.commands[k].update(deadline_reachable=bool(msg.deadline_reachable),
+                                           expected_final_material_mm=float(msg.expected_final_material_mm),
+                                           planner_note=msg.note)
 
     def _on_result(self, msg: PassResult) -> None:
         if (self._mine(msg.job_id) and msg.pass_index >= self.record.first_pass
@@ -438,6 +447,8 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
         def on_pass(index, command, result):
             if not quiet:
                 print(pass_row(index, command, result, session.record.guard_cut_mm(index)), flush=True)
+                if index == session.record.first_pass and command.get("planner_note"):
+                    print(f"   planner: {command['planner_note']}", flush=True)
             if index == restart_planner_after:
                 session.graph.kill("sequence_planner")
                 session.graph.start("sequence_planner")
