@@ -9,6 +9,7 @@ plant, refuse malformed, huge and off-timeline batches and an enormous contour (
 WARN) and stay up; never ask the plant for per-period strut states; and the view must keep
 serving a reading client while other clients connect and never read."""
 
+import contextlib
 import json
 import math
 import re
@@ -69,10 +70,12 @@ class Telemetry:
         return PlantTelemetry(**(fields | changes))
 
 
-def _silent_subscriber(port: int):
+def _silent_subscriber(clients: contextlib.ExitStack, port: int):
     """A client that subscribes to every channel, then never reads again (its small queue
-    full, the socket's buffers fill: the server must not wait for it)."""
-    socket = connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30, max_queue=2)
+    full, the socket's buffers fill: the server must not wait for it). No pings to answer, and
+    it never reads the server's close either."""
+    socket = clients.enter_context(connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30,
+                                           max_queue=2, ping_interval=None, close_timeout=0.2))
     subscribed = 0
     while subscribed < 5:
         frame = socket.recv(timeout=30)
@@ -88,7 +91,7 @@ def test_robot_state_and_the_view_obey_the_plant_refuse_the_rest_and_stay_up(ros
     robot_state = NodeProcess([sys.executable, "-m", "hex_control.ros.nodes.robot_state"], ros_env,
                               tmp_path / "robot_state.log")
     view = NodeProcess([sys.executable, "-m", "hex_control.cli", "view", "--port", "0"], ros_env, tmp_path / "view.log")
-    sockets = []
+    clients = contextlib.ExitStack()  # the WebSocket clients
     try:
         tf = ros.collect(TFMessage, "/tf", KEEP)
         diagnostics = ros.collect(DiagnosticArray, "/diagnostics", KEEP)
@@ -162,25 +165,33 @@ def test_robot_state_and_the_view_obey_the_plant_refuse_the_rest_and_stay_up(ros
         # the view: 20 clients that connect and idle, 3 that subscribe to everything and never read
         port = int(wait_until(lambda: re.search(r"ws://127\.0\.0\.1:(\d+)", view.output()), 30.0,
                               what="hexctl view's address").group(1))
-        sockets += [connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30) for _ in range(20)]
-        sockets += [_silent_subscriber(port) for _ in range(3)]
+        for _ in range(20):
+            clients.enter_context(connect(f"ws://127.0.0.1:{port}", subprotocols=SUBPROTOCOLS, open_timeout=30))
+        for _ in range(3):
+            _silent_subscriber(clients, port)
         reader = FoxgloveClient(port)
         reader.start()
         try:
             wait_until(lambda: "/scene/bead" in reader.received or reader.error, 30.0, what="the reader's bead scene")
-            for k in range(40):  # 4 s of the plant's batches, the silent clients' queues long full
-                plant_telemetry.publish(telemetry.batch(1.2 + 0.1 * k))
-                wait_until(lambda k=k: round(1.202 + 0.1 * k, 6) in _stamps(tf), 30.0, what="robot_state's /tf")
-            last_ns = round((1.202 + 3.9) * 1e9)
-            wait_until(lambda: any(t >= last_ns for t, _ in reader.received.get("/tf", [])) or reader.error, 30.0,
-                       what="the reading client's /tf of the last batch")
+            # 5 batches of the most samples a batch may hold: 50,000 wrench messages, some 15 MB to each
+            # subscriber, far beyond what the silent clients' socket buffers hold
+            starts = [1.2 + 10.0 * k for k in range(5)]
+            for start in starts:
+                plant_telemetry.publish(telemetry.batch(start, samples=MAX_BATCH_SAMPLES))
+            last_s = round(starts[-1] + 0.001 * (MAX_BATCH_SAMPLES - 1), 6)
+            wait_until(lambda: last_s in _stamps(tf), 60.0, what="robot_state's /tf of the last batch")
+            wait_until(lambda: any(t >= round(last_s * 1e9) for t, _ in reader.received.get("/tf", []))
+                       or reader.error, 60.0, what="the reading client's /tf of the last batch")
+            # the reader is served to the end: the last batch's last wrench arrives (in such a burst the SDK
+            # may drop what overflows a client's own queue: 43,474 to 50,000 of them arrived here)
+            wait_until(lambda: any(t >= round(last_s * 1e9) for t, _ in reader.received.get("/plant/wrench", []))
+                       or reader.error, 60.0, what="the last wrench at the reading client")
             assert reader.error is None, reader.error
         finally:
             reader.stopped.set()
             reader.join(timeout=5.0)
         assert robot_state.alive() and view.alive()
     finally:
-        for socket in sockets:
-            socket.close()
+        clients.close()
         assert view.stop() in (0, 130), view.output()[-3000:]
         robot_state.stop()
