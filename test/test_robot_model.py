@@ -205,14 +205,18 @@ def test_telemetry_batches_are_checked_before_any_work_and_the_timeline_goes_on(
     core.every_sample = True
     placed = core.place(**_batch(path, names, start_s=1.1, deflection_mm=[0.0, math.nan, 0.0, 0.0]))
     assert len(placed.states) == 3 and [t for t, _ in placed.failures] == [1.101]
+    # every sample of a long batch: at most max_placed of them, evenly spaced, the last kept
+    core.max_placed = 3
+    placed = core.place(**_batch(np.repeat(path, 5, axis=0), names, start_s=1.2))
+    assert [t for t, _ in placed.states] == pytest.approx([1.2, 1.210, 1.219])
     core.every_sample = False
     # one forged batch in the past or the future moves nothing; the plant's next one is placed
     for forged_s in (0.5, 1e6):
         with pytest.raises(TelemetryRefused, match="does not go on") as refused:
             core.place(**_batch(path, names, start_s=forged_s))
         assert refused.value.counter == "stale_telemetry"
-        assert core.timeline.last_s == pytest.approx(1.103)
-    assert core.place(**_batch(path, names, start_s=1.2)).states
+        assert core.timeline.last_s == pytest.approx(1.219)
+    assert core.place(**_batch(path, names, start_s=1.3)).states
     # a restarted plant (time from 0 again): its first batch waits, its second confirms it
     with pytest.raises(TelemetryRefused):
         core.place(**_batch(path, names, start_s=0.0))

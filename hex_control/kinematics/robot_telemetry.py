@@ -5,11 +5,13 @@ samples place the machine.
 Every input is hostile until checked (docs/graph.md, threat model): the node obeys only the
 plant's publishers; behind that door a batch is refused whole, before any conversion, when
 its arrays disagree in size, it holds more than ``MAX_BATCH_SAMPLES`` samples (the plant
-sends some 100), its names are not the machine's joints, or a stamp is not finite, negative,
-beyond what a ROS stamp holds, or goes back inside the batch. Across batches the timeline
-must go on: a batch that starts before the last one placed, or more than ``REJOIN_S`` after
-it, is held back until the next batch continues it (a restarted plant's time begins again
-at 0; one forged stamp in the past or future moves nothing).
+sends 20: 0.1 s of 5 ms periods; its parameters' ranges allow at most 10 s of 0.1 ms), its
+names are not the machine's joints, or a stamp is not finite, negative, beyond what a ROS
+stamp holds, or goes back inside the batch. Across batches the timeline must go on: a batch
+that starts before the last one placed, or more than ``REJOIN_S`` after it, is held back
+until the next batch continues it (a restarted plant's time begins again at 0; one forged
+stamp in the past or future moves nothing). With ``every_sample`` at most
+``MAX_PLACED_SAMPLES`` of a batch are placed: the forward kinematics per batch is bounded.
 
 Units: time s (the plant's sim time), strut lengths m on the wire, mm in the model.
 """
@@ -22,7 +24,8 @@ import numpy as np
 
 from hex_control.kinematics.robot_model import RobotModel, RobotState
 
-MAX_BATCH_SAMPLES = 10_000  # the plant batches 0.1 s of 1 ms periods; FK costs ~50 us a sample
+MAX_BATCH_SAMPLES = 100_000  # telemetry_period_s <= 10 s over control_period_s >= 1e-4 s (plant_setup.py)
+MAX_PLACED_SAMPLES = 1_000  # with every_sample, a batch's FK work (~0.2 ms a sample here) stays under a second
 MAX_STAMP_S = 2**31 - 1  # builtin_interfaces/Time holds int32 seconds
 REJOIN_S = 5.0  # sim s: the longest step from one batch to the next taken without confirmation
 
@@ -81,10 +84,12 @@ class Timeline:
 
 class RobotTelemetry:
     """Robot states from the plant's telemetry batches: the last sample of each, or with
-    ``every_sample`` each one."""
+    ``every_sample`` each one (of a batch of more than ``max_placed``, that many evenly
+    spaced, the last kept)."""
 
-    def __init__(self, model: RobotModel, *, every_sample: bool = False, max_samples: int = MAX_BATCH_SAMPLES):
-        self.model, self.every_sample, self.max_samples = model, every_sample, max_samples
+    def __init__(self, model: RobotModel, *, every_sample: bool = False, max_samples: int = MAX_BATCH_SAMPLES,
+                 max_placed: int = MAX_PLACED_SAMPLES):
+        self.model, self.every_sample, self.max_samples, self.max_placed = model, every_sample, max_samples, max_placed
         self.joint_names = list(model.machine.joint_names)
         self.timeline = Timeline()
 
@@ -107,7 +112,13 @@ class RobotTelemetry:
                                    f"{self.timeline.last_s:.3f} s (taken if the next one confirms it)")
         lengths_mm = np.asarray(strut_lengths_m, float).reshape(samples, joints) * 1000.0
         states, failures = [], []
-        for k in range(samples) if self.every_sample else (samples - 1,):
+        if not self.every_sample:
+            placed = [samples - 1]
+        elif samples <= self.max_placed:
+            placed = range(samples)
+        else:
+            placed = np.unique(np.linspace(0, samples - 1, self.max_placed).round().astype(int)).tolist()
+        for k in placed:
             try:  # the plant's arrays are in the machine's joint order
                 states.append((float(times[k]), self.model.state(lengths_mm[k], float(deflection_mm[k]))))
             except ValueError as error:  # forward kinematics found no pose, or a non-finite sample

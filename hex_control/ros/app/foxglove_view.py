@@ -24,8 +24,8 @@ the URDF from robot_state, telemetry and contours from the plant, pass commands 
 sequence planner, results from the plant and the pass planner; the others are counted
 (``foreign_*`` on ``/diagnostics``, node ``foxglove_view``) and named in a WARN. A contour
 beyond the pass planner's point limit, a telemetry batch beyond the plant's or with stamps
-that are no ROS stamps is refused (``rejected_*``), and a scene line and the contour
-channel have at most ``MAX_OUTLINE_POINTS`` points: the work per message and per second's republish stays
+that are no ROS stamps is refused (``rejected_*``), and a scene line, the contour channel
+and a batch's wrenches have at most ``MAX_OUTLINE_POINTS`` points: the work per message and per second's republish stays
 bounded. A client that stops reading loses its own messages (the SDK's per-client queue),
 not anyone else's.
 
@@ -232,7 +232,8 @@ class FoxgloveView(Node):
         except TelemetryRefused as error:
             self._refused("telemetry", f"telemetry refused: {error}")
             return
-        for k, time_s in enumerate(msg.time_s):
+        for k in spaced_indices(len(msg.time_s), MAX_OUTLINE_POINTS).tolist():  # a plot's worth a batch
+            time_s = msg.time_s[k]
             ns = _ns(time_s)
             header = {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": "tool"}
             for channel, forces in ((self.wrench, msg.measured_force_n), (self.true_wrench, msg.true_force_n)):
