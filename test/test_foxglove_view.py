@@ -99,7 +99,8 @@ def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounde
     """Threat model (docs/graph.md): the view's work per message stays bounded. A contour
     beyond the pass planner's limit, one with mismatched arrays, a batch beyond the plant's
     limit and batches whose stamps are no ROS stamps are refused (counted, WARN); 50,000
-    points are drawn and sent (every second) as MAX_OUTLINE_POINTS, the ends kept."""
+    points are drawn and sent (every second), and 5,000 wrenches of a batch logged, as
+    MAX_OUTLINE_POINTS, the ends kept."""
     from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS
     from hex_control.kinematics.robot_telemetry import MAX_BATCH_SAMPLES
 
@@ -117,14 +118,17 @@ def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounde
     assert view.last_contour is None and view.diagnostics.summary()[1].count("refused") == 2
     x = [60.0 * i / 49_999 for i in range(50_000)]
     view._on_contour(Contour(x_mm=x, z_mm=[0.5] * len(x)))
+    view._on_telemetry(PlantTelemetry(time_s=[0.001 * k for k in range(5000)], measured_force_n=[1.0] * 5000))
     view.republish()
     writer.close()
-    scenes, contours = [], []
+    scenes, contours, wrench_ns = [], [], []
     with open(path, "rb") as stream:
         for schema, channel, message in make_reader(stream).iter_messages():
             if channel.topic == "/scene/bead":
                 scenes.append(_decoder(schema).FromString(message.data))
             contours += [json.loads(message.data)] if channel.topic == "/grinding/contour" else []
+            wrench_ns += [message.log_time] if channel.topic == "/plant/wrench" else []
+    assert len(wrench_ns) == MAX_OUTLINE_POINTS and (wrench_ns[0], wrench_ns[-1]) == (0, 4_999_000_000)
     assert len(scenes) == 2 and len(contours) == 2 and len(contours[-1]["x_mm"]) == MAX_OUTLINE_POINTS
     assert contours[-1]["x_mm"][-1] == 60.0 and contours[-1]["parent_mm"] == []
     for line in scenes[-1].entities[0].lines:
