@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from hex_control.grinding.contour import MAX_CONTOUR_POINTS
+
 MM = 1e-3
-MAX_CONTOUR_POINTS = 100_000  # as hex_control.ros.infra.interfaces: what a scan may hold
 MAX_OUTLINE_POINTS = 2_000  # vertices per side of the outline (the shipped scans have fewer)
 
 

@@ -12,6 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
+#: a contour's points at most, as a scan may hold them: planning a pass costs time in
+#: proportion to its points, and a 10^6-point contour kept the pass planner busy for minutes
+MAX_CONTOUR_POINTS = 100_000
+
 
 @dataclass(frozen=True)
 class Contour:

@@ -20,7 +20,7 @@ from builtin_interfaces.msg import Time as TimeMsg
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from hex_control.grinding.contour import Contour
+from hex_control.grinding.contour import MAX_CONTOUR_POINTS, Contour
 from hex_control.grinding.part_quality import PartQuality
 from hex_control.plant.strut_trajectory import StrutTrajectory
 from hex_control_msgs.msg import Contour as ContourMsg
@@ -34,9 +34,8 @@ RESULTS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durabilit
 TELEMETRY = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 STREAM = 100
 MAX_PATH_SAMPLES = 200_000
-#: a contour's points and length, at most: planning a pass costs time in proportion to the
-#: length (1.5-4 s for 300 mm), and a 10^6-point contour kept the pass planner busy for minutes
-MAX_CONTOUR_POINTS = 100_000
+#: a contour's length at most (its points: grinding.contour.MAX_CONTOUR_POINTS): planning a
+#: pass costs time in proportion to the length
 MAX_CONTOUR_LENGTH_MM = 2_000.0
 PATH_FIELDS = ("x_mm", "y_mm", "z_mm", "roll_rad", "pitch_rad", "yaw_rad")
 
