@@ -200,7 +200,10 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon
                                                  "--field", "z_mm", "--timeout", "30")
         assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", (attempt, echoed)
         verbs.append(verb_s)
-    assert max(verbs) < ECHO_BOUND_S, [round(v, 2) for v in verbs]
+    # the first echo has the daemon subscribe, and the publisher must learn of the new
+    # subscription (0.3 s idle, up to 3 s beside two CPU burners); from then on the daemon
+    # holds the topic and answers at once (the 20-try statistics: hexctl bench topic_tools)
+    assert verbs[0] < ECHO_MISSED_ANNOUNCEMENT_S and max(verbs[1:]) < ECHO_BOUND_S, [round(v, 2) for v in verbs]
     # without a daemon: the verb's own node, the same message (a missed announcement allowed for)
     _start_up, verb_s, echoed = timed_hexctl(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour",
                                              "--once", "--field", "z_mm")
