@@ -264,9 +264,10 @@ def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tm
         controller_log = session.graph.log_tail("force_controller", 200)
     assert outcome["reason"] in ("done", "quit", "aborted"), outcome
     assert controller_log.count("clock jumped") == 1, controller_log
-    # pass 0 ended with a result; in real time a starved loop may abort it (force commands late
-    # with two CPU burners and another graph before it): the machine does not wait, by design
-    assert session.record.results[0]["status"] in ("completed", "aborted"), session.record.results[0]
+    # pass 0 ended with a result; in real time a starved loop may abort it, or run it without
+    # following the force (force commands late with two CPU burners or another graph beside
+    # it): the machine does not wait, by design, and the plant's verdict says so (FAULTED)
+    assert session.record.results[0]["status"] in ("completed", "aborted", "faulted"), session.record.results[0]
 
 
 def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossing(ros_env, tmp_path):
