@@ -33,39 +33,10 @@ LATCHED = (("/grinding/contour", "hex_control_msgs.msg", "Contour"),
            ("/robot_description", "std_msgs.msg", "String"),
            ("/force_controller/status", "diagnostic_msgs.msg", "DiagnosticStatus"))
 VOLATILE_PER_PUBLISHER = 8
-PUBLISHER = """
-import importlib, sys
-import rclpy
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Float64
-topic, module, name, index, extra = sys.argv[1:6]
-cls = getattr(importlib.import_module(module), name)
-rclpy.init()
-node = rclpy.create_node(f"bench_publisher_{index}")
-latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-message = cls()
-for field in ("job_id", "data", "name"):
-    if hasattr(message, field) and isinstance(getattr(message, field), str):
-        setattr(message, field, "bench")
-node.create_publisher(cls, topic, latched).publish(message)
-for i in range(int(extra)):
-    node.create_publisher(Float64, f"/bench/p{index}/topic_{i:02d}", 10)
-print("ready:", flush=True)
-rclpy.spin(node)
-"""
+PUBLISHER = [sys.executable, "-m", "hex_control.ros.tools.latched_publisher"]
 HEXCTL = str(Path(sys.executable).parent / "hexctl")
 #: hexctl, timed: its start-up and the verb apart, on stderr's last line
-TIMED = """
-import sys, time
-started = time.monotonic()
-import rclpy, yaml
-from hex_control.cli import main
-from hex_control.ros.tools.ros_cli import topic
-ready = time.monotonic()
-code = main(sys.argv[1:])
-print(f"timing {ready - started:.4f} {time.monotonic() - ready:.4f}", file=sys.stderr)
-sys.exit(code)
-"""
+TIMED = [sys.executable, "-m", "hex_control.ros.tools.timed_hexctl"]
 
 
 def _environment() -> dict:
@@ -93,7 +64,7 @@ def _processes(commands, env, ready: bool):
 
 def timed_hexctl(env, *arguments) -> tuple[float, float, subprocess.CompletedProcess]:
     """(start-up s, the verb's own s, the result) of ``hexctl arguments`` (test_ros_cli uses it)."""
-    result = subprocess.run([sys.executable, "-c", TIMED, *arguments], env=env, capture_output=True, text=True,
+    result = subprocess.run([*TIMED, *arguments], env=env, capture_output=True, text=True,
                             timeout=120)
     start_up, verb = (float(v) for v in result.stderr.strip().splitlines()[-1].split()[1:3])
     return start_up, verb, result
@@ -128,7 +99,7 @@ def topic_tools(quick: bool) -> list[str]:
     tries = 3 if quick else 20
     env = _environment()
     direct = env | {"HEXCTL_NO_DAEMON": "1"}
-    publishers = [[sys.executable, "-c", PUBLISHER, topic, module, name, str(i), str(VOLATILE_PER_PUBLISHER)]
+    publishers = [[*PUBLISHER, topic, module, name, str(i), str(VOLATILE_PER_PUBLISHER)]
                   for i, (topic, module, name) in enumerate(LATCHED)]
     expected = {topic for topic, *_ in LATCHED} | {f"/bench/p{i}/topic_{j:02d}" for i in range(len(LATCHED))
                                                    for j in range(VOLATILE_PER_PUBLISHER)}
