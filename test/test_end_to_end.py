@@ -20,6 +20,8 @@ from hex_control.grinding.part_quality import part_quality
 from hex_control.recording.bag import read_messages
 from hex_control.ros.app.graph import graph_nodes
 from hex_control.ros.app.grind_job import JobSession
+from hex_control.ros.infra.interfaces import stamp_s
+from hex_control_msgs.msg import ForceAxisCommand
 from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
@@ -186,10 +188,15 @@ def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros
     with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
         session.start_job(30.0, RESET_TIME_S)
         record = session.record
-        session.spin_until(lambda: record.force and record.force[-1][1] > 15.0, 300.0, "grinding force")
-        killed_at = record.force[-1][0]
+        # the kill's sim time is that of the last command the plant got: the telemetry the
+        # observer has read lags the plant, which grinds on until its watchdog trips
+        commands = []
+        session.observer.create_subscription(ForceAxisCommand, "plant/force_axis_command",
+                                             lambda msg: commands.append(stamp_s(msg.header.stamp)), 10)
+        session.spin_until(lambda: record.force and record.force[-1][1] > 15.0 and commands, 300.0, "grinding force")
         session.graph.kill("force_controller")
         session.spin_until(lambda: 0 in record.results, 120.0, "pass 0's result")
+        killed_at = max(commands)
         session.graph.start("force_controller")
         outcome = session.wait_for_outcome(400.0)
     # the plant's amplifier watchdog (0.1 s) retracts the table: no force 0.5 s later
