@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import WrenchStamped
+from rclpy.serialization import deserialize_message
 
 from hex_control.config import config_file
 from hex_control.grinding.part_quality import part_quality
@@ -21,7 +23,7 @@ from hex_control.recording.bag import read_messages
 from hex_control.ros.app.graph import graph_nodes
 from hex_control.ros.app.grind_job import JobSession
 from hex_control.ros.infra.interfaces import stamp_s
-from hex_control_msgs.msg import ForceAxisCommand
+from hex_control_msgs.msg import ForceAxisCommand, PlantTelemetry
 from ros_harness import wait_until
 
 BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
@@ -307,12 +309,24 @@ def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossin
         assert {f"/cell{k}/plant/wrench", f"/cell{k}/grinding/pass_result", f"/cell{k}/clock"} <= set(topics)
     assert "/clock" not in topics and "/plant/wrench" not in topics
     # item 3: each job's recording (rosbag2 MCAP, read by the mcap reader) holds every topic of
-    # docs/graph.md's table within its cell, and nothing of the other cell
+    # docs/graph.md's table within its cell, and nothing of the other cell; the per-period
+    # wrench and force command written from the telemetry batches (issue 39): every period's
     for k, session in zip((1, 2), sessions):
-        recorded = {}
-        for topic, _, _, _ in read_messages(session.output / "recording"):
+        recorded, sampled, wrenches = {}, set(), []
+        for topic, _, data, _ in read_messages(session.output / "recording"):
             recorded[topic] = recorded.get(topic, 0) + 1
+            if topic == f"/cell{k}/plant/telemetry":
+                batch = deserialize_message(data, PlantTelemetry)
+                assert len(batch.table_command_mm) == len(batch.measured_force_n) == len(batch.time_s)
+                sampled.update(batch.time_s)
+            elif topic == f"/cell{k}/plant/wrench":
+                stamp = deserialize_message(data, WrenchStamped).header.stamp
+                wrenches.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
         assert {f"/cell{k}/{topic}" for topic in GRAPH_TABLE} <= set(recorded), sorted(recorded)
+        steps = np.diff(sorted(sampled))
+        assert len(steps) > 1000 and np.max(steps) < 0.005 + 1e-9  # every period from the first recorded on
+        assert wrenches == [round(t * 1e9) for t in sorted(sampled)]
+        assert recorded[f"/cell{k}/plant/force_axis_command"] == len(wrenches) - 1
         assert all(topic.startswith(f"/cell{k}/") for topic in recorded)
         assert recorded[f"/cell{k}/grinding/pass_command"] >= outcomes[session.seed]["passes"]
 

@@ -286,6 +286,8 @@ def test_a_jobs_recorder_leaves_out_the_streams_telemetry_batches(tmp_path):
               "/cell/plant/true_wrench": "geometry_msgs/msg/WrenchStamped",
               "/cell/plant/wrench": "geometry_msgs/msg/WrenchStamped",
               "/cell/plant/telemetry": "hex_control_msgs/msg/PlantTelemetry",
+              "/cell/plant/force_axis_command": "hex_control_msgs/msg/ForceAxisCommand",
+              "/cell/grinding/contour": "hex_control_msgs/msg/Contour",
               "/other/plant/wrench": "geometry_msgs/msg/WrenchStamped"}
     subscribed = []
     node = SimpleNamespace(
@@ -294,4 +296,37 @@ def test_a_jobs_recorder_leaves_out_the_streams_telemetry_batches(tmp_path):
         create_subscription=lambda cls, name, callback, qos, raw: subscribed.append(name) or name,
         create_timer=lambda period, callback: None)
     Recorder(node, BagWriter(tmp_path / "bag"), all_topics=True, under="/cell", exclude=BATCHED_IN_TELEMETRY)
-    assert sorted(subscribed) == ["/cell/plant/telemetry", "/cell/plant/wrench"]
+    assert sorted(subscribed) == ["/cell/grinding/contour", "/cell/plant/telemetry"]
+
+
+def test_the_unbatcher_gives_every_period_s_wrench_and_command_once():
+    """Issue 39: a job's recording writes plant/wrench and plant/force_axis_command from the
+    telemetry batches: each sample's measured force at its plant time, each command stamped
+    with the state it answered (the sample before), a holding plant's repeated state once."""
+    from geometry_msgs.msg import WrenchStamped
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from hex_control.ros.tools.recorder import Unbatcher
+    from hex_control_msgs.msg import ForceAxisCommand, PlantTelemetry
+
+    batches = [PlantTelemetry(time_s=[0.0, 0.005], measured_force_n=[1.0, 2.0], table_command_mm=[-1.0, -1.5]),
+               PlantTelemetry(time_s=[0.005], measured_force_n=[2.0], table_command_mm=[-1.5]),  # held: again
+               PlantTelemetry(time_s=[0.01, 0.015], measured_force_n=[3.0, 4.0], table_command_mm=[-2.0, -2.5])]
+    unbatch = Unbatcher()
+    out = [(topic, kind, data) for batch in batches for topic, kind, data in unbatch(serialize_message(batch))]
+    wrenches = [deserialize_message(d, WrenchStamped) for t, _, d in out if t == "plant/wrench"]
+    commands = [deserialize_message(d, ForceAxisCommand) for t, _, d in out if t == "plant/force_axis_command"]
+    assert {(t, k) for t, k, _ in out} == {("plant/wrench", "geometry_msgs/msg/WrenchStamped"),
+                                           ("plant/force_axis_command", "hex_control_msgs/msg/ForceAxisCommand")}
+    assert [(w.header.stamp.nanosec, w.wrench.force.z, w.header.frame_id) for w in wrenches] == [
+        (0, 1.0, "tool"), (5_000_000, 2.0, "tool"), (10_000_000, 3.0, "tool"), (15_000_000, 4.0, "tool")]
+    assert [(c.header.stamp.nanosec, c.position_mm) for c in commands] == [
+        (0, -1.5), (5_000_000, -2.0), (10_000_000, -2.5)]
+
+
+def test_a_plant_state_carries_the_force_command_held_over_its_period():
+    from hex_control.plant.simulator import PlantSimulator
+
+    plant = PlantSimulator()
+    assert plant.advance(0.005, -2.0).table_command_mm == -2.0
+    assert plant.advance(0.005, -1.25).table_command_mm == -1.25

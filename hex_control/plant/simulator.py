@@ -28,6 +28,7 @@ class PlantSnapshot:
     force_n: float  # true normal force
     measured_force_n: float  # what the force sensor reports
     table_position_mm: float
+    table_command_mm: float  # the force-axis command held over the period that ended here
     disk_frequency_hz: float
     strut_lengths_m: np.ndarray | None  # None until the first strut command
     strut_speeds_m_s: np.ndarray | None
@@ -93,5 +94,6 @@ class PlantSimulator:
     def snapshot(self) -> PlantSnapshot:
         ready = self._machine_ready
         return PlantSnapshot(self.time_s, self.table.force_n, self.table.measured_n, self.table.position_mm,
-                             self.table.disk_frequency_hz, self.machine.lengths_m if ready else None,
-                             self.machine.speeds_m_s if ready else None, self.machine.deflection_mm, self.centre_mm)
+                             self.force_command_mm, self.table.disk_frequency_hz,
+                             self.machine.lengths_m if ready else None, self.machine.speeds_m_s if ready else None,
+                             self.machine.deflection_mm, self.centre_mm)

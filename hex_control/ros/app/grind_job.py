@@ -268,9 +268,10 @@ class JobSession:
         self.executor.add_node(self.observer)
         self.recorder = None
         if record:  # every topic of the cell, into output/recording (rosbag2's MCAP layout), but the
-            # per-period streams that plant/telemetry batches (recorded: the plant would send them only for us)
+            # per-period streams that plant/telemetry batches: written from the batches (a reader of each
+            # would cost the lock-step loop a send per period)
             self.recorder = Recorder(self.observer, BagWriter(fresh_recording_dir(self.output)), all_topics=True,
-                                     under=namespace, exclude=RECORD_EXCLUDED)
+                                     under=namespace, exclude=RECORD_EXCLUDED, unbatch=True)
         self.goal_handle = self.result_future = None
 
     def __enter__(self) -> JobSession:

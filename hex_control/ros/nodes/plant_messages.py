@@ -83,7 +83,8 @@ class PlantStreams:
         self.strut_names, self.period_s, self.debug_streams = strut_names, period_s, debug_streams
         self.clock_period_s, self.telemetry_period_s = clock_period_s, telemetry_period_s
         self.next_clock_s = 0.0
-        self.telemetry = []  # (time s, measured N, true N, table mm, deflection mm, x mm, H mm, lengths m)
+        # (time s, measured N, true N, table mm, deflection mm, x mm, H mm, table command mm, lengths m)
+        self.telemetry = []
         self.clock = node.create_publisher(Clock, "clock", CLOCK_QOS)  # /clock, or the cell's under its namespace
         self.wrench = node.create_publisher(WrenchStamped, "plant/wrench", 100)
         # transient-local: a late joiner (a logger, a test) still gets the last 1000 states
@@ -144,7 +145,7 @@ class PlantStreams:
             return  # the same state sent again (lock-step start-up)
         centre = state.centre_mm or (math.nan, math.nan)
         self.telemetry.append((state.time_s, state.measured_force_n, state.force_n, state.table_position_mm,
-                               state.deflection_mm, *centre, state.strut_lengths_m))
+                               state.deflection_mm, *centre, state.table_command_mm, state.strut_lengths_m))
         if len(self.telemetry) * self.period_s >= self.telemetry_period_s - 1e-9:
             self.flush()
 
@@ -156,8 +157,8 @@ class PlantStreams:
         msg = PlantTelemetry(strut_names=self.strut_names, time_s=list(columns[0]), measured_force_n=list(columns[1]),
                              true_force_n=list(columns[2]), table_position_mm=list(columns[3]),
                              deflection_mm=list(columns[4]), centre_x_mm=list(columns[5]),
-                             centre_height_mm=list(columns[6]))
-        if all(lengths is not None for lengths in columns[7]):
-            msg.strut_lengths_m = np.concatenate(columns[7]).tolist()
+                             centre_height_mm=list(columns[6]), table_command_mm=list(columns[7]))
+        if all(lengths is not None for lengths in columns[8]):
+            msg.strut_lengths_m = np.concatenate(columns[8]).tolist()
         msg.header.stamp = time_msg(samples[-1][0])
         self.telemetry_publisher.publish(msg)

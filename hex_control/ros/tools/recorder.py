@@ -8,10 +8,16 @@ or with ``all_topics`` to every topic it discovers as it appears, except hidden 
 out (``exclude``). It subscribes as the publishers offer: transient-local if one of them is
 (a latched topic's last message is recorded too), reliable if all are.
 
-A recorder's subscription is not free for the publisher: the plant computes and sends
-``plant/strut_states`` every control period only while someone subscribes, so a job's
-recorder leaves out the per-period streams that ``plant/telemetry`` already carries in
-batches (:data:`BATCHED_IN_TELEMETRY`); the batches are recorded as they are.
+A recorder's subscription is not free for the publisher: every reader of a per-period
+stream is one more send in the lock-step loop's critical path (the wrench and the force
+command cost the graph 14 % of its pace: ``hexctl bench graph``), and the plant computes
+``plant/strut_states`` only while someone subscribes. So a job's recorder leaves out the
+per-period streams whose every value ``plant/telemetry`` already carries in batches
+(:data:`BATCHED_IN_TELEMETRY`); the batches are recorded as they are, and with ``unbatch``
+the recorder writes the measured wrench and the force command of each batch's samples
+under their own topics as well (:class:`Unbatcher`: the plant's values and sim-time
+stamps, at the batch's receive time), so the recording reads as before in Foxglove or
+PlotJuggler, at no cost to the loop.
 """
 
 from __future__ import annotations
@@ -28,9 +34,13 @@ from hex_control.ros.infra.diagnostics import CLOCK_QOS
 from hex_control.ros.infra.messages import message_class
 
 DISCOVERY_PERIOD_S = 0.5
-#: per-period plant streams whose content plant/telemetry batches (strut lengths, true force,
-#: deflection, tool centre): a job's recording keeps the batches and leaves these out
-BATCHED_IN_TELEMETRY = ("plant/strut_states", "plant/true_wrench", "plant/deflection", "plant/tool_centre")
+#: per-period streams whose content plant/telemetry batches (measured force, force command,
+#: strut lengths, true force, deflection, tool centre): a job's recording keeps the batches
+#: and leaves these out
+BATCHED_IN_TELEMETRY = ("plant/wrench", "plant/force_axis_command", "plant/strut_states", "plant/true_wrench",
+                        "plant/deflection", "plant/tool_centre")
+#: how the plant offers the per-period streams (reliable, volatile, depth 100): what the unbatched ones say
+PER_PERIOD_QOS = {"history": "keep_last", "depth": 100, "reliability": "reliable", "durability": "volatile"}
 DEPTH = 1000  # a burst of this many messages between two executor turns is kept
 ACK_WAIT_S = 2.0  # play: at the end, wait this long in all for reliable subscribers' acknowledgements
 
@@ -45,12 +55,51 @@ def _offered(info) -> dict:
             "durability": q.durability.name.lower()}
 
 
+class Unbatcher:
+    """The per-period messages ``plant/telemetry`` batches carry, one batch after another:
+    (topic relative to the cell, type name, CDR bytes) of ``plant/wrench`` (the measured
+    normal force, frame ``tool``, stamped with the sample's plant time) and
+    ``plant/force_axis_command`` (the table's target in mm, stamped with the state it
+    answered: the sample before, whose period it was held over). A sample at or before the
+    last one taken (a holding plant's state sent again) is skipped."""
+
+    def __init__(self):
+        from geometry_msgs.msg import WrenchStamped
+
+        from hex_control_msgs.msg import ForceAxisCommand
+
+        self.last_time_s = None
+        self._wrench, self._command = WrenchStamped(), ForceAxisCommand()
+        self._wrench.header.frame_id = "tool"
+
+    def __call__(self, data: bytes):
+        from rclpy.serialization import deserialize_message, serialize_message
+
+        from hex_control.ros.infra.interfaces import time_msg
+        from hex_control_msgs.msg import PlantTelemetry
+
+        batch = deserialize_message(data, PlantTelemetry)
+        wrench, command = self._wrench, self._command
+        for k, time_s in enumerate(batch.time_s):
+            if self.last_time_s is not None and not time_s > self.last_time_s:
+                continue
+            wrench.header.stamp = time_msg(time_s)
+            wrench.wrench.force.z = batch.measured_force_n[k]
+            yield "plant/wrench", "geometry_msgs/msg/WrenchStamped", serialize_message(wrench)
+            if self.last_time_s is not None and k < len(batch.table_command_mm):
+                command.header.stamp = time_msg(self.last_time_s)
+                command.position_mm = batch.table_command_mm[k]
+                yield "plant/force_axis_command", "hex_control_msgs/msg/ForceAxisCommand", serialize_message(command)
+            self.last_time_s = time_s
+
+
 class Recorder:
     """Records into ``writer`` on ``node``'s executor: ``topics`` (full names), or all of them,
-    or all under the namespace ``under``, but those of ``exclude`` (names relative to ``under``)."""
+    or all under the namespace ``under``, but those of ``exclude`` (names relative to ``under``);
+    ``unbatch``: also the per-period streams of ``plant/telemetry`` (:class:`Unbatcher`)."""
 
     def __init__(self, node, writer: BagWriter, topics=None, all_topics: bool = False, *, on_first=None,
-                 under: str = "", exclude=()):
+                 under: str = "", exclude=(), unbatch: bool = False):
         if not all_topics and not topics:
             raise ValueError("record which topics? give some, or all")
         self.node, self.writer = node, writer
@@ -60,6 +109,8 @@ class Recorder:
         self.subscriptions = {}
         self.counts: dict[str, int] = {}
         self.on_first = on_first  # called with a topic's name on its first message
+        self.telemetry = self.under + "plant/telemetry" if unbatch else None
+        self.unbatch = Unbatcher() if unbatch else None
         self._timer = node.create_timer(DISCOVERY_PERIOD_S, self.discover)
         self.discover()
 
@@ -88,8 +139,20 @@ class Recorder:
                 cls, name, lambda data, topic=name: self._write(topic, data), qos, raw=True)
 
     def _write(self, topic: str, data: bytes) -> None:
+        now_ns = time.time_ns()
+        self._count(topic)
+        self.writer.write(topic, data, now_ns)
+        if topic == self.telemetry:
+            for relative, type_name, sample in self.unbatch(data):
+                name = self.under + relative
+                if name not in self.counts:
+                    self.writer.add_topic(name, type_name, [PER_PERIOD_QOS])
+                    self.counts[name] = 0
+                self._count(name)
+                self.writer.write(name, sample, now_ns)
+
+    def _count(self, topic: str) -> None:
         self.counts[topic] += 1
-        self.writer.write(topic, data, time.time_ns())
         if self.counts[topic] == 1 and self.on_first:
             self.on_first(topic)
 
