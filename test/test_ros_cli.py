@@ -163,10 +163,10 @@ def test_action_send_goal_is_accepted_and_ctrl_c_cancels_it(ros_env, spawn, tmp_
 
 
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-#: issue 40: an echo of a latched topic returns within this (s), the verb's own time (from
-#: its call to its return; Python's and rclpy's start-up apart: that alone varied from 1.4 to
-#: 7 s between processes at a load of 20 on 2 cores). 20 tries idle and loaded: hexctl bench
-#: topic_tools
+#: issue 40: an echo of a latched topic returns within this (s). Asserted here of the verb's
+#: own time (from its call to its return): the whole process (Python's start, the imports)
+#: varies with the machine's load, 0.3 s idle to several s at a load of 15 on 2 cores. 20
+#: tries of the whole process, idle and beside two CPU burners: hexctl bench topic_tools
 ECHO_BOUND_S = 2.0
 #: without the daemon, within one Fast DDS announcement period (3 s) more: a participant that
 #: does not answer a new one's start-up announcements is found at its next one (about 1 of 4)
@@ -191,21 +191,27 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon
     node = ros.node("contour_publisher")
     node.create_publisher(Contour, "/cli/grinding/contour", LATCHED).publish(
         Contour(job_id="latched", pass_index=3, x_mm=[0.0, 1.5], z_mm=[0.25, 0.5]))
-    # the daemon knows the topic (the first echo would wait for that, as its own node would)
+    # once the daemon's graph has the topic (the first echo would wait for that, as its own node
+    # would) the daemon has subscribed to it, before any echo asked: the first echo is as quick
+    # as the next ones (subscribing at the first echo, it took up to 3.1 s beside two burners)
     wait_until(lambda: "/cli/grinding/contour" in hexctl(ros_env, "topic", "list").stdout.split(), 60.0,
                what="the topic in the daemon's graph")
     verbs = []
     for attempt in range(TRIES):
-        _start_up, verb_s, echoed = timed_hexctl(ros_env, "topic", "echo", "/cli/grinding/contour", "--once",
-                                                 "--field", "z_mm", "--timeout", "30")
+        _whole, _start_up, verb_s, echoed = timed_hexctl(ros_env, "topic", "echo", "/cli/grinding/contour", "--once",
+                                                         "--field", "z_mm", "--timeout", "30")
         assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", (attempt, echoed)
         verbs.append(verb_s)
-    # the first echo has the daemon subscribe, and the publisher must learn of the new
-    # subscription (0.3 s idle, up to 3 s beside two CPU burners); from then on the daemon
-    # holds the topic and answers at once (the 20-try statistics: hexctl bench topic_tools)
-    assert verbs[0] < ECHO_MISSED_ANNOUNCEMENT_S and max(verbs[1:]) < ECHO_BOUND_S, [round(v, 2) for v in verbs]
+    assert max(verbs) < ECHO_BOUND_S, [round(v, 2) for v in verbs]
+    # the verb answered by the daemon starts lean: it imports no rclpy (0.2 s of CPU, up to 1 s
+    # and more beside two burners)
+    lean = subprocess.run([sys.executable, "-c", "import sys; from hex_control.cli import main; "
+                           "code = main(['topic', 'echo', '/cli/grinding/contour', '--once', '--field', 'pass_index']);"
+                           " print(code, 'rclpy' in sys.modules)"], env=ros_env, capture_output=True, text=True,
+                          timeout=120)
+    assert lean.stdout == "3\n---\n0 False\n", lean
     # without a daemon: the verb's own node, the same message (a missed announcement allowed for)
-    _start_up, verb_s, echoed = timed_hexctl(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour",
+    _whole, _start_up, verb_s, echoed = timed_hexctl(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour",
                                              "--once", "--field", "z_mm")
     assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", echoed
     assert verb_s < ECHO_MISSED_ANNOUNCEMENT_S, verb_s

@@ -114,7 +114,28 @@ def _list_verb(verbs, what: str) -> None:
     listing.add_argument("--wait", type=float, default=GRAPH_WAIT_S, help=GRAPH_WAIT_HELP)
 
 
+def _through_daemon(args) -> int | None:
+    """The verb answered by the hexctl daemon (hex_control/ros/tools/ros_cli/daemon.py), whose
+    client imports neither rclpy nor numpy; None if it does not answer that verb or no daemon
+    runs (the verb then discovers the graph itself)."""
+    from hex_control.ros.tools.ros_cli import daemon
+
+    if daemon.disabled():
+        return None
+    if args.verb == "list" and args.command in ("topic", "node", "service", "action") \
+            and not (args.command == "topic" and args.show_types):
+        return daemon.list_verb(args.command, args.wait, show_types=getattr(args, "show_types", False),
+                                include_hidden=getattr(args, "include_hidden", False))
+    if args.command == "topic" and args.verb == "echo":
+        return daemon.echo_verb(args.topic, 1 if args.once else args.count, args.field, args.timeout,
+                                durability=args.qos_durability, reliability=args.qos_reliability,
+                                depth=args.qos_depth)
+    return None
+
+
 def _ros_verb(args) -> int:
+    if args.command != "daemon" and (code := _through_daemon(args)) is not None:
+        return code
     if args.command == "topic":
         from hex_control.ros.tools.ros_cli import topic
 

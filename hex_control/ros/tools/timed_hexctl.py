@@ -1,6 +1,8 @@
 """``hexctl`` timed: ``python -m hex_control.ros.tools.timed_hexctl ARGS`` runs the verb and
-prints ``timing <start-up s> <verb s>`` as stderr's last line, the start-up (Python, rclpy
-and the verb's modules imported) apart from the verb's own time."""
+prints ``timing <start-up s> <verb s>`` as stderr's last line: the start-up (hexctl's modules
+imported, from this module's first line) apart from the verb's own time (what the verb
+imports on its way counts as the verb's: rclpy, for a verb that needs it). The caller times
+the whole process beside it (the interpreter's own start and exit included)."""
 
 import time
 
@@ -8,11 +10,7 @@ started = time.monotonic()
 
 import sys  # noqa: E402
 
-import rclpy  # noqa: E402, F401  (imported here so that its import counts as start-up)
-import yaml  # noqa: E402, F401
-
 from hex_control.cli import main  # noqa: E402
-from hex_control.ros.tools.ros_cli import topic  # noqa: E402, F401
 
 if __name__ == "__main__":
     ready = time.monotonic()

@@ -13,27 +13,14 @@ from rclpy.action import ActionClient, get_action_names_and_types
 
 from hex_control.ros.infra.action_probe import ResponseProbe
 from hex_control.ros.infra.messages import to_primitive
-from hex_control.ros.tools.ros_cli import daemon
 from hex_control.ros.tools.ros_cli.common import absolute, interface_message, settle_graph, spin_until
 
 STATUS = {GoalStatus.STATUS_SUCCEEDED: "SUCCEEDED", GoalStatus.STATUS_CANCELED: "CANCELED",
           GoalStatus.STATUS_ABORTED: "ABORTED"}
 
 
-#: an action's feedback topic, by which the daemon's graph names the action (as rcl does)
-FEEDBACK = "/_action/feedback"
-
-
 def action_list(show_types: bool, wait_s: float) -> int:
-    """Every action: from the daemon's graph (.daemon), else this verb's own once settled."""
-    graph = daemon.settled_graph(wait_s)
-    if graph is not None:
-        for topic, types in sorted(graph["topics"]):
-            if topic.endswith(FEEDBACK):
-                name = topic.removesuffix(FEEDBACK)
-                print(f"{name} [{', '.join(t.removesuffix('_FeedbackMessage') for t in types)}]" if show_types
-                      else name)
-        return 0
+    """Every action once this verb's own discovery has settled (hexctl asks the daemon first)."""
     rclpy.init(args=None)
     try:
         node = rclpy.create_node("hexctl_action_list", start_parameter_services=False)

@@ -18,17 +18,10 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from hex_control.ros.infra.messages import fill_message
+from hex_control.ros.tools.ros_cli.daemon import VerbError, hidden  # noqa: F401 - re-exported (.daemon: no rclpy)
 
 DURABILITY = {"volatile": DurabilityPolicy.VOLATILE, "transient_local": DurabilityPolicy.TRANSIENT_LOCAL}
 RELIABILITY = {"reliable": ReliabilityPolicy.RELIABLE, "best_effort": ReliabilityPolicy.BEST_EFFORT}
-
-
-class VerbError(Exception):
-    """A verb that cannot go on: its message is printed as one line, with ``code``."""
-
-    def __init__(self, message: str, code: int = 2):
-        super().__init__(message)
-        self.code = code
 
 
 @contextmanager
@@ -117,12 +110,6 @@ def settle_graph(node, max_wait_s: float, quiet_s: float = GRAPH_QUIET_S) -> Non
         if now >= end:
             return
         rclpy.spin_once(node, timeout_sec=min(0.1, max(end - now, 0.0)))
-
-
-def hidden(name: str) -> bool:
-    """A hidden topic or service (a name part starting with '_', e.g. an action's
-    ``_action/...`` internals), as ros2cli hides them unless --include-hidden."""
-    return any(part.startswith("_") for part in name.split("/"))
 
 
 def spin_until(node, condition, timeout_s: float, what: str):

@@ -1,18 +1,25 @@
 """``hexctl daemon start|stop|status``: a long-lived participant that has already discovered
-the graph, as ros2cli's daemon. ``topic list``, ``node list``, ``service list`` ask it for its
-graph and ``topic echo`` has it subscribe and forward the serialized messages (a latched
-topic, its publishers all transient local, it goes on holding after the echo, and the next
-echo gets the stored messages at once: a new subscription waits for the publisher to learn
-of it, 0.3 s idle and up to 2.5 s at a load of 20 here): a verb's own
-new participant waits for discovery, and Fast DDS finds about one remote participant in four
-only at that one's next announcement, up to 3 s later (measured here, at any load, whatever
-the initial announcements), so a list cut short missed topics and an echo took up to 3 s.
+the graph, as ros2cli's daemon. ``topic list``, ``node list``, ``service list``, ``action
+list`` ask it for its graph and ``topic echo`` has it subscribe and forward each message as
+the YAML the verb prints. A verb's own new participant waits for discovery, and Fast DDS
+finds about one remote participant in four only at that one's next announcement, up to 3 s
+later (measured here, at any load, whatever the initial announcements), so a list cut short
+missed topics and an echo took up to 3 s.
+
+Latched topics (every publisher transient local) the daemon subscribes to as soon as its
+graph shows them, before anyone asks, and holds their messages: an echo gets them at once.
+Subscribing only at the first echo, that echo waited for the publisher to learn of the new
+subscription: 0.3 s idle, up to 3.1 s beside two CPU burners.
+
+The client side (the verbs, :func:`list_verb`, :func:`echo_verb`) imports nothing but the
+standard library: a verb answered by the daemon starts without rclpy, numpy or yaml (their
+import, 0.3 s of CPU, took up to 2 s beside two CPU burners).
 
 The first verb that finds no daemon starts one and works without it this time; the daemon
-ends after IDLE_S without a request. One daemon per user and discovery setting (domain id,
-discovery range, static peers, RMW), on a Unix socket. Requests and answers are JSON lines;
-an echo is answered by a header line, then each message as a 4-byte big-endian length and
-its CDR bytes, until the client closes the connection.
+ends after IDLE_S without a request. One daemon per user, discovery setting (domain id,
+discovery range, static peers, RMW) and PROTOCOL, on a Unix socket. Requests and answers are
+JSON lines; an echo is answered by a header line, then each message's YAML text (UTF-8) as a
+4-byte big-endian length and the text, until the client closes the connection.
 """
 
 from __future__ import annotations
@@ -45,6 +52,12 @@ LATCHED_DEPTH = 100
 #: GRAPH_QUIET_S (common.MIN_DISCOVERY_S: every participant announces itself every 3 s)
 SETTLED_AGE_S = 4.5
 GRAPH_QUIET_S = 0.6
+#: topics the daemon does not subscribe to before an echo asks: every node's log (transient
+#: local, but a stream; held, the daemon would take every line of every node)
+NOT_HELD = ("/rosout",)
+#: the requests' and answers' format: part of the socket's name, so that a verb never asks a
+#: daemon of another hexctl version (that one ends when idle)
+PROTOCOL = 2
 NODE_NAME = "_hexctl_daemon"  # hidden: a leading underscore (node list leaves it out)
 _ENVIRONMENT = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "RMW_IMPLEMENTATION",
                 "ROS_LOCALHOST_ONLY")
@@ -52,12 +65,27 @@ _ENVIRONMENT = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PE
 
 def socket_path(environ=os.environ) -> Path:
     """The daemon's socket for this user and discovery setting."""
-    setting = "|".join(environ.get(k, "") for k in _ENVIRONMENT)
+    setting = "|".join([*(environ.get(k, "") for k in _ENVIRONMENT), str(PROTOCOL)])
     digest = hashlib.sha256(setting.encode()).hexdigest()[:12]
     return Path(tempfile.gettempdir()) / f"hexctl-daemon-{os.getuid()}-{digest}.sock"
 
 
 # -- the client side (the verbs) ---------------------------------------------------------------
+
+class VerbError(Exception):
+    """A verb that cannot go on: its message is printed as one line, with ``code`` (exit codes:
+    :mod:`.common`)."""
+
+    def __init__(self, message: str, code: int = 2):
+        super().__init__(message)
+        self.code = code
+
+
+def hidden(name: str) -> bool:
+    """A hidden topic or service (a name part starting with '_', e.g. an action's
+    ``_action/...`` internals), as ros2cli hides them unless --include-hidden."""
+    return any(part.startswith("_") for part in name.split("/"))
+
 
 def disabled() -> bool:
     return os.environ.get("HEXCTL_NO_DAEMON", "") not in ("", "0")
@@ -111,34 +139,76 @@ def settled_graph(max_wait_s: float) -> dict | None:
         time.sleep(min(0.1, max(end - time.monotonic(), 0.0)))
 
 
-def echo_stream(topic: str, timeout_s: float, qos: dict):
-    """(type name, the connection, its reading file) of the daemon's echo of ``topic``, once
-    it has found the publishers and subscribed; None without a daemon. The daemon's error (no
-    publisher in time) is raised as ValueError."""
+#: an action's feedback topic, by which a graph names the action (as rcl does)
+ACTION_FEEDBACK = "/_action/feedback"
+
+
+def list_verb(kind: str, wait_s: float, *, show_types: bool = False, include_hidden: bool = False) -> int | None:
+    """``hexctl topic|node|service|action list`` from the daemon's graph once settled (at most
+    ``wait_s``): 0, or None without a daemon (one is started; the verb discovers on its own)."""
+    graph = settled_graph(wait_s)
+    if graph is None:
+        return None
+    if kind == "node":
+        names = {f"{ns.rstrip('/')}/{name}" for ns, name in graph["nodes"]}
+        lines = sorted(n for n in names if not n.rsplit("/", 1)[-1].startswith(("hexctl_", "_")))
+    elif kind == "action":
+        lines = [topic.removesuffix(ACTION_FEEDBACK) + (
+                 f" [{', '.join(t.removesuffix('_FeedbackMessage') for t in types)}]" if show_types else "")
+                 for topic, types in sorted(graph["topics"]) if topic.endswith(ACTION_FEEDBACK)]
+    else:
+        lines = [f"{name} [{', '.join(types)}]" if show_types else name
+                 for name, types in sorted(graph["topics" if kind == "topic" else "services"])
+                 if include_hidden or not hidden(name)]
+    for line in lines:
+        print(line)
+    return 0
+
+
+def echo_verb(topic: str, limit: int, field: str, timeout_s: float, *, durability=None, reliability=None,
+              depth=None) -> int | None:
+    """``hexctl topic echo`` through the daemon: its participant has discovered the publishers
+    already, and holds a latched topic's messages. Prints ``limit`` messages (0: until
+    interrupted) as YAML; ``timeout_s`` bounds the wait for the first. 0, or None without a
+    daemon (one is started)."""
+    topic = topic if topic.startswith("/") else "/" + topic
+    if depth is not None and depth < 1:
+        raise VerbError(f"--qos-depth must be >= 1, got {depth}")
+    end = time.monotonic() + timeout_s
     client = connect(timeout_s + 2.0)
     if client is None:
         start()
         return None
-    client.settimeout(None)
-    client.sendall(json.dumps({"op": "echo", "topic": topic, "timeout_s": timeout_s, **qos}).encode() + b"\n")
-    stream = client.makefile("rb")
-    header = stream.readline()
-    if not header:
-        client.close()
-        return None
-    answer = json.loads(header)
-    if "error" in answer:
-        client.close()
-        raise ValueError(answer["error"])
-    return answer["type"], client, stream
-
-
-def read_frame(stream) -> bytes | None:
-    """The next message's CDR bytes of an echo stream; None when the daemon ended it."""
-    size = stream.read(4)
-    if len(size) < 4:
-        return None
-    return stream.read(struct.unpack(">I", size)[0])
+    with client:
+        client.sendall(json.dumps({"op": "echo", "topic": topic, "timeout_s": timeout_s, "field": field,
+                                   "durability": durability, "reliability": reliability,
+                                   "depth": depth}).encode() + b"\n")
+        stream = client.makefile("rb")
+        client.settimeout(timeout_s + 5.0)  # the daemon answers by then: the type, or no publisher
+        try:
+            header = stream.readline()
+        except TimeoutError:
+            raise VerbError(f"the hexctl daemon did not answer the echo of {topic} (hexctl daemon stop; "
+                            "HEXCTL_NO_DAEMON=1 to do without)", 1) from None
+        if not header:
+            raise VerbError(f"the hexctl daemon ended the echo of {topic}", 1)
+        answer = json.loads(header)
+        if "error" in answer:
+            raise VerbError(answer["error"])
+        received = 0
+        while limit <= 0 or received < limit:
+            client.settimeout(None if received else max(end - time.monotonic(), 0.001))
+            try:
+                size = stream.read(4)
+                text = stream.read(struct.unpack(">I", size)[0]) if len(size) == 4 else b""
+            except TimeoutError:
+                raise VerbError(f"no message on {topic} within {timeout_s:g} s") from None
+            if not text:
+                raise VerbError(f"the hexctl daemon ended the echo of {topic}", 1)
+            print(text.decode())
+            print("---", flush=True)
+            received += 1
+    return 0
 
 
 def daemon_verb(verb: str) -> int:
@@ -164,18 +234,43 @@ def daemon_verb(verb: str) -> int:
 
 class _Latched:
     """A latched topic the daemon holds: its type, the messages stored (CDR), and the queues
-    of the echoes listening. Touched only on the spinning thread."""
+    of the echoes listening (an echo's thread joins and leaves under the lock: no turn of the
+    spinning thread to wait for)."""
 
     def __init__(self, type_name: str):
         self.type_name = type_name
         self.messages: deque = deque(maxlen=LATCHED_DEPTH)
         self.listeners: list[queue.Queue] = []
         self.subscription = None
+        self.lock = threading.Lock()
 
     def on_message(self, data: bytes) -> None:
-        self.messages.append(data)
-        for listener in self.listeners:
-            listener.put(data)
+        with self.lock:
+            self.messages.append(data)
+            for listener in self.listeners:
+                listener.put(data)
+
+    def listen(self, frames: queue.Queue) -> None:
+        """``frames`` gets the messages stored, then each new one."""
+        with self.lock:
+            self.listeners.append(frames)
+            for data in self.messages:
+                frames.put(data)
+
+    def leave(self, frames: queue.Queue) -> None:
+        with self.lock:
+            self.listeners.remove(frames)
+
+
+def _latched_type(publishers) -> str | None:
+    """The type of a latched topic's publishers (endpoint infos): all transient local and of
+    one type; else None."""
+    from rclpy.qos import DurabilityPolicy
+
+    if publishers and len({p.topic_type for p in publishers}) == 1 \
+            and all(p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers):
+        return publishers[0].topic_type
+    return None
 
 
 # -- the daemon ---------------------------------------------------------------------------------
@@ -198,31 +293,46 @@ class _Daemon:
         self.stopping = False
         self.latched: dict[str, _Latched] = {}
         self.wake = self.node.create_guard_condition(lambda: None)
+        self.hold_latched()
 
     def hold(self, topic: str, publishers) -> _Latched | None:
-        """The held subscription of ``topic`` if its publishers are all transient local
-        (created now, kept for the next echo), else None. On the spinning thread."""
-        from rclpy.qos import DurabilityPolicy
-
+        """The held subscription of ``topic`` if its publishers (endpoint infos) are all
+        transient local and of one type (created now if need be), else None. On the spinning
+        thread."""
         from hex_control.ros.infra.messages import message_class
         from hex_control.ros.tools.ros_cli.topic import publishers_qos
 
-        if topic in self.latched:
-            return self.latched[topic]
-        qos = publishers_qos(publishers, depth=LATCHED_DEPTH)
-        if qos.durability != DurabilityPolicy.TRANSIENT_LOCAL or len({p.topic_type for p in publishers}) != 1:
+        type_name = _latched_type(publishers)
+        if type_name is None:
             return None
-        held = _Latched(publishers[0].topic_type)
-        held.subscription = self.node.create_subscription(message_class(held.type_name), topic, held.on_message,
-                                                          qos, raw=True)
+        held = self.latched.get(topic)
+        if held is not None:
+            return held if held.type_name == type_name else None
+        try:
+            cls = message_class(type_name)
+        except ValueError:
+            return None  # a type not installed here: an echo says so
+        held = _Latched(type_name)
+        held.subscription = self.node.create_subscription(cls, topic, held.on_message,
+                                                          publishers_qos(publishers, depth=LATCHED_DEPTH), raw=True)
         self.latched[topic] = held
         return held
+
+    def hold_latched(self) -> None:
+        """Subscribe to every latched topic of the graph not held yet (before anyone asks:
+        the publishers learn of the subscription now, not while an echo waits)."""
+        for topic, _types in self.graph[1]:
+            if topic not in self.latched and topic not in NOT_HELD:
+                publishers = self.node.get_publishers_info_by_topic(topic)
+                if publishers:
+                    self.hold(topic, publishers)
 
     def forget_gone_publishers(self) -> None:
         """A held topic whose publishers are gone: their messages go with them."""
         for topic, held in self.latched.items():
             if held.messages and not self.node.get_publishers_info_by_topic(topic):
-                held.messages.clear()
+                with held.lock:
+                    held.messages.clear()
 
     def on_spin_thread(self, function):
         answer: queue.Queue = queue.Queue()
@@ -258,6 +368,7 @@ class _Daemon:
                 if graph != self.graph or waiting:
                     self.graph, self.changed = graph, now
                     self.forget_gone_publishers()
+                    self.hold_latched()
                 if not self.echoes and now - self.last_request > IDLE_S:
                     self.stopping = True
 
@@ -268,22 +379,9 @@ class _Daemon:
                 "nodes": [[n[0], n[1]] for n in nodes], "topics": [[n, list(t)] for n, t in topics],
                 "services": [[n, list(t)] for n, t in services]}
 
-    def echo_latched(self, connection, topic: str) -> None:
-        """A held latched topic: the stored messages at once, then each new one."""
-        held, frames = self.latched[topic], queue.Queue()
-
-        def listen():
-            held.listeners.append(frames)
-            for data in held.messages:
-                frames.put(data)
-        self.on_spin_thread(listen)
-        try:
-            self.forward(connection, held.type_name, frames)
-        finally:
-            self.on_spin_thread(lambda: held.listeners.remove(frames))
-
-    def forward(self, connection, type_name: str, frames: queue.Queue) -> None:
-        """Send the header, then each message of ``frames`` until the client closes."""
+    def forward(self, connection, type_name: str, frames: queue.Queue, text) -> None:
+        """Send the header, then each message of ``frames`` as ``text(CDR bytes)`` until the
+        client closes."""
         self.echoes += 1
         try:
             connection.sendall(json.dumps({"type": type_name}).encode() + b"\n")
@@ -298,6 +396,7 @@ class _Daemon:
                     except BlockingIOError:
                         pass
                     continue
+                data = text(data).encode()
                 connection.setblocking(True)
                 connection.sendall(struct.pack(">I", len(data)) + data)
                 connection.setblocking(False)
@@ -307,32 +406,71 @@ class _Daemon:
             self.echoes -= 1
 
     def echo(self, connection, message: dict) -> None:
-        """Subscribe once the topic's publishers are known, forward until the client goes."""
-        from hex_control.ros.tools.ros_cli.common import VerbError, qos_from_options
-        from hex_control.ros.tools.ros_cli.topic import publishers_qos
+        """Forward ``message["topic"]`` as YAML (``message["field"]`` of each message) until the
+        client goes: from the held subscription of a latched topic, else from one made once
+        the publishers are known (with their QoS, or the one asked for). A held topic takes
+        one turn of the spinning thread: under load each turn waits for the scheduler."""
+        from rclpy.serialization import deserialize_message
 
-        topic, timeout_s = message["topic"], float(message["timeout_s"])
+        from hex_control.ros.infra.messages import get_field, message_class
+        from hex_control.ros.tools.ros_cli.common import qos_from_options
+        from hex_control.ros.tools.ros_cli.topic import message_yaml, publishers_qos
+
+        topic, timeout_s, field = message["topic"], float(message["timeout_s"]), str(message.get("field") or "")
+        own_qos = any(message.get(k) for k in ("durability", "reliability", "depth"))
         end = time.monotonic() + timeout_s
-        while not (publishers := self.on_spin_thread(lambda: self.node.get_publishers_info_by_topic(topic))):
-            if time.monotonic() >= end:
-                raise VerbError(f"no publisher of {topic} within {timeout_s:g} s "
-                                "(is it running, with the same ROS_DOMAIN_ID? hexctl topic list)")
-            time.sleep(0.02)
-        if not any(message.get(k) for k in ("durability", "reliability", "depth")) \
-                and self.on_spin_thread(lambda: self.hold(topic, publishers)) is not None:
-            self.echo_latched(connection, topic)
+        frames: queue.Queue = queue.Queue()
+
+        def message_type(publishers):
+            try:
+                cls = message_class(publishers[0].topic_type)
+                get_field(cls(), field)  # a wrong field is refused now, not at the first message
+            except ValueError as exc:
+                raise VerbError(f"{topic}: {exc}") from None
+            return cls
+
+        def find():
+            """(the publishers, the message class, the held topic now listened to, or None);
+            None before the publishers are known."""
+            publishers = self.node.get_publishers_info_by_topic(topic)
+            if not publishers:
+                return None
+            cls = message_type(publishers)
+            held = None if own_qos or topic in NOT_HELD else self.hold(topic, publishers)
+            if held is not None:
+                held.listen(frames)
+            return publishers, cls, held
+
+        # a latched topic held already (the usual case): from this thread (rclpy's graph
+        # queries are thread safe), without a turn of the spinning thread
+        held = None if own_qos else self.latched.get(topic)
+        publishers = self.node.get_publishers_info_by_topic(topic) if held is not None else []
+        if held is not None and _latched_type(publishers) == held.type_name:
+            cls = message_type(publishers)
+            held.listen(frames)
+        else:
+            while (found := self.on_spin_thread(find)) is None:
+                if time.monotonic() >= end:
+                    raise VerbError(f"no publisher of {topic} within {timeout_s:g} s "
+                                    "(is it running, with the same ROS_DOMAIN_ID? hexctl topic list)")
+                time.sleep(0.02)
+            publishers, cls, held = found
+
+        def text(data: bytes) -> str:
+            return message_yaml(deserialize_message(data, cls), field)
+
+        if held is not None:
+            try:
+                self.forward(connection, held.type_name, frames, text)
+            finally:
+                held.leave(frames)
             return
         qos = qos_from_options(message.get("durability"), message.get("reliability"), message.get("depth"),
                                publishers_qos(publishers))
-        type_name = publishers[0].topic_type
-        from hex_control.ros.infra.messages import message_class
-
-        cls = message_class(type_name)
-        frames: queue.Queue = queue.Queue()
         subscription = self.on_spin_thread(lambda: self.node.create_subscription(
             cls, topic, frames.put, qos, raw=True))
         try:
-            self.forward(connection, type_name, frames)
+            self.forward(connection, publishers[0].topic_type, frames, text)
         finally:
             self.on_spin_thread(lambda: self.node.destroy_subscription(subscription))
 
@@ -343,8 +481,6 @@ def serve() -> int:
 
     class Handler(socketserver.StreamRequestHandler):
         def handle(self):
-            from hex_control.ros.tools.ros_cli.common import VerbError
-
             daemon.last_request = time.monotonic()
             line = self.rfile.readline()
             try:

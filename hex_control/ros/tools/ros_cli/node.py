@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from rclpy.action import get_action_client_names_and_types_by_node, get_action_server_names_and_types_by_node
 
-from hex_control.ros.tools.ros_cli import daemon
 from hex_control.ros.tools.ros_cli.common import VerbError, cli_node, hidden, settle_graph
 
 
@@ -17,12 +16,7 @@ def _nodes(node) -> list[str]:
 
 
 def node_list(wait_s: float) -> int:
-    graph = daemon.settled_graph(wait_s)  # the daemon's graph (.daemon), else this verb's own
-    if graph is not None:
-        names = {f"{ns.rstrip('/')}/{name}" for ns, name in graph["nodes"]}
-        for name in sorted(n for n in names if not n.rsplit("/", 1)[-1].startswith(("hexctl_", "_"))):
-            print(name)
-        return 0
+    """The nodes once this verb's own discovery has settled (hexctl asks the daemon first)."""
     with cli_node("hexctl_node_list") as node:
         settle_graph(node, wait_s)
         for name in _nodes(node):

@@ -7,7 +7,6 @@ from __future__ import annotations
 import yaml
 
 from hex_control.ros.infra.messages import to_primitive
-from hex_control.ros.tools.ros_cli import daemon
 from hex_control.ros.tools.ros_cli.common import (
     absolute,
     cli_node,
@@ -20,15 +19,11 @@ from hex_control.ros.tools.ros_cli.param import answer
 
 
 def service_list(show_types: bool, wait_s: float, include_hidden: bool = False) -> int:
-    """Every service, once discovery has settled; an action's ``_action/...`` ones with
-    ``include_hidden``. From the daemon's graph (.daemon), else this verb's own."""
-    graph = daemon.settled_graph(wait_s)
-    if graph is None:
-        with cli_node("hexctl_service_list") as node:
-            settle_graph(node, wait_s)
-            services = node.get_service_names_and_types()
-    else:
-        services = graph["services"]
+    """Every service, once this verb's own discovery has settled (hexctl asks the daemon
+    first); an action's ``_action/...`` ones with ``include_hidden``."""
+    with cli_node("hexctl_service_list") as node:
+        settle_graph(node, wait_s)
+        services = node.get_service_names_and_types()
     for name, types in sorted(services):
         if hidden(name) and not include_hidden:
             continue

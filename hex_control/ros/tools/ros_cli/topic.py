@@ -18,7 +18,6 @@ import time
 import rclpy
 import yaml
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.serialization import deserialize_message
 
 from hex_control.ros.infra.messages import fill_message, get_field, message_class, to_primitive
 from hex_control.ros.tools.ros_cli import daemon
@@ -87,14 +86,9 @@ def _subscriptions(node, topic: str) -> list:
 
 
 def topic_list(show_types: bool, wait_s: float, include_hidden: bool = False) -> int:
-    """Every topic (``show_types``: with its publishers and subscriptions counted): from the
-    daemon's graph (:mod:`.daemon`), without one once this verb's own discovery has settled."""
-    graph = None if show_types else daemon.settled_graph(wait_s)
-    if graph is not None:
-        for name, _types in graph["topics"]:
-            if include_hidden or not hidden(name):
-                print(name)
-        return 0
+    """Every topic (``show_types``: with its publishers and subscriptions counted), once this
+    verb's own discovery has settled (without -t, hexctl asks the daemon first:
+    :func:`.daemon.list_verb`)."""
     with cli_node("hexctl_topic_list") as node:
         settle_graph(node, wait_s)
         for name, types in sorted(node.get_topic_names_and_types()):
@@ -146,53 +140,28 @@ def topic_info(topic: str, verbose: bool, wait_s: float) -> int:
     return 0
 
 
+def message_yaml(msg, field: str) -> str:
+    """``field`` of ``msg`` ('' the whole message) as echo prints it: YAML, a lone value without
+    YAML's end-of-document marker (as ros2 topic echo prints it)."""
+    text = yaml.safe_dump(to_primitive(get_field(msg, field)), sort_keys=False, default_flow_style=False)
+    return text.removesuffix("\n...\n").rstrip()
+
+
 def _print_message(msg, field: str) -> None:
-    value = get_field(msg, field) if field else msg
-    print(yaml.safe_dump(to_primitive(value), sort_keys=False, default_flow_style=False).rstrip())
+    print(message_yaml(msg, field))
     print("---", flush=True)
-
-
-def _echo_through_daemon(topic: str, limit: int, field: str, end: float, timeout_s: float, *, qos: dict) -> bool:
-    """Echo through the daemon (its participant has discovered the publishers already: no
-    wait for a new participant's discovery); False if no daemon runs (one is started)."""
-    try:
-        streamed = daemon.echo_stream(topic, max(end - time.monotonic(), 0.0), qos)
-    except ValueError as exc:
-        raise VerbError(str(exc)) from None
-    if streamed is None:
-        return False
-    type_name, connection, stream = streamed
-    with connection:
-        try:
-            cls = message_class(type_name)
-        except ValueError as exc:
-            raise VerbError(f"{topic}: {exc}") from None
-        received = 0
-        while limit <= 0 or received < limit:
-            connection.settimeout(None if received else max(end - time.monotonic(), 0.001))
-            try:
-                data = daemon.read_frame(stream)
-            except TimeoutError:
-                raise VerbError(f"no message on {topic} within {timeout_s:g} s") from None
-            if data is None:
-                raise VerbError(f"the hexctl daemon ended the echo of {topic}", 1)
-            _print_message(deserialize_message(data, cls), field)
-            received += 1
-    return True
 
 
 def topic_echo(topic: str, once: bool, count: int, field: str, timeout_s: float, *, durability=None, reliability=None,
                depth=None) -> int:
-    """Print messages; ``timeout_s`` bounds the wait for the first one (discovery included):
-    none by then is exit 2. Through the daemon when one runs, else from a node of its own."""
+    """Print messages from a node of its own (hexctl asks the daemon first:
+    :func:`.daemon.echo_verb`); ``timeout_s`` bounds the wait for the first one (discovery
+    included): none by then is exit 2."""
     topic = absolute(topic)
     end = time.monotonic() + timeout_s
     if depth is not None and depth < 1:
         raise VerbError(f"--qos-depth must be >= 1, got {depth}")
     limit = 1 if once else count
-    if _echo_through_daemon(topic, limit, field, end, timeout_s,
-                            qos={"durability": durability, "reliability": reliability, "depth": depth}):
-        return 0
     with cli_node("hexctl_topic_echo") as node:
         cls, qos = _subscribe_class_and_qos(node, topic, end, timeout_s, durability, reliability=reliability,
                                             depth=depth)
