@@ -54,9 +54,11 @@ def stroke_check(lengths_m):
         raise ValueError(f"out of stroke: {lengths_m}")
 
 
-def make_core(mode="lockstep", grinding=False, wait_for_controller=True, end_time_s=0.0, command_timeout_s=0.1):
+def make_core(mode="lockstep", grinding=False, wait_for_controller=True, end_time_s=0.0, command_timeout_s=0.1, *,
+              plan_ahead_s=0.0):
     clock, outputs, events = Clock(), Outputs(), EventLog()
-    settings = CoreSettings(mode, PERIOD, 1.0, command_timeout_s, -5.0, -1.0, end_time_s, wait_for_controller)
+    settings = CoreSettings(mode, PERIOD, 1.0, command_timeout_s, -5.0, -1.0, end_time_s, wait_for_controller,
+                            plan_ahead_s)
     monitor = None
     if grinding:  # the pass bookkeeping only: the workpiece is not on this simulator
         monitor = PassMonitor(GrindingCell(weld_bead(60.0, 0.8, seed=1), DiskModel(), ProcessVariation(0.0, 0.0)))
@@ -145,6 +147,33 @@ def test_between_passes_the_clock_stands_still_until_a_pass_is_covered():
     assert [s.pass_index for s in outputs.started] == [0]
     assert outputs.states[-1] == pytest.approx(1.0)
     assert core.sim.strut_commands_m == pytest.approx([2.62] * 6, abs=1e-4)  # the trajectory was followed
+
+
+def test_after_a_scan_the_clock_runs_on_plan_ahead_s_then_stands():
+    """Issue 39: after the scan that ends a pass the plant runs on ``plan_ahead_s`` while the
+    next pass is planned (its path starts start_delay_s after the scan, later than that), and
+    stands there until the pass is covered; not before the first pass (the job's start)."""
+    core, outputs, events, _ = make_core(grinding=True, plan_ahead_s=0.2)
+    answer(core)
+    assert outputs.states == [0.0] and outputs.holds == [0.0]  # no scan yet: the planners' first plan
+    core.on_pass_announced(ScheduledPass("job", 0, 0.6, 0.7, 0.8, 0.9))
+    core.on_strut_trajectory(ramp(0.55, 0.4))
+    core.on_controller_status("trajectory", {"job_id": "job", "pass_index": "0"})
+    while not outputs.ended:
+        answer(core)
+    scan_s = outputs.ended[0].end_s
+    for _ in range(100):
+        answer(core)
+    assert outputs.states[-1] == pytest.approx(scan_s + 0.2) and outputs.holds[-1] == pytest.approx(scan_s + 0.2)
+    assert len(outputs.holds) == 2  # standing: said once
+    start_s = scan_s + 0.6  # the pass planner's start_delay_s after the scan
+    core.on_pass_announced(ScheduledPass("job", 1, start_s, start_s + 0.1, start_s + 0.2, start_s + 0.3))
+    core.on_strut_trajectory(ramp(start_s - 0.05, 0.4))
+    core.on_controller_status("trajectory", {"job_id": "job", "pass_index": "1"})
+    answer(core)
+    assert outputs.states[-1] > scan_s + 0.2 + 1e-6 and "late_strut_trajectory" not in events.counts  # on again
+    with pytest.raises(ValueError, match="plan_ahead_s"):
+        CoreSettings("lockstep", PERIOD, 1.0, 0.1, -5.0, -1.0, 0.0, True, -0.1)
 
 
 def test_a_pass_waits_for_the_controller_to_hold_it_unless_told_not_to():

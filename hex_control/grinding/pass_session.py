@@ -164,11 +164,13 @@ def checked_positions(path: ToolPath) -> np.ndarray:
     return np.vstack([path.positions_mm[::10], path.positions_mm[-1:]])
 
 
-def pass_start_s(contour_s: float, clock_s: float, start_delay_s: float) -> float:
-    """When the pass's path starts (s, plant clock): ``start_delay_s`` after the later of the
-    scan it was planned on and the node's clock (in lock-step the plant's clock stands still
-    between passes, so that delay is the planning time charged, the same at any load)."""
-    return max(contour_s, clock_s) + start_delay_s
+def pass_start_s(contour_s: float, clock_s: float, start_delay_s: float, plan_ahead_s: float = 0.0) -> float:
+    """When the pass's path starts (s, plant clock): ``start_delay_s`` after the scan it was
+    planned on while the node's clock is within ``plan_ahead_s`` of that scan, else after the
+    clock. In lock-step the plant runs on at most ``plan_ahead_s`` after a scan while the
+    planners plan, then stands (plant/lockstep.py): so the start, and the delay charged for
+    planning, are the same at any load."""
+    return (contour_s if clock_s <= contour_s + plan_ahead_s + 1e-9 else clock_s) + start_delay_s
 
 
 class PassSession:

@@ -106,12 +106,15 @@ class CoreSettings:
     table_start_mm: float
     end_time_s: float  # 0 = never
     wait_for_controller: bool  # lock-step: a pass starts only once the controller holds it
+    plan_ahead_s: float = 0.0  # lock-step: sim time run on after a scan while the next pass is planned
 
     def __post_init__(self):
         if self.mode not in ("lockstep", "realtime"):
             raise ValueError(f"mode must be lockstep or realtime, got {self.mode!r}")
         if not (self.period_s > 0 and self.real_time_factor > 0 and self.command_timeout_s > 0):
             raise ValueError("period_s, real_time_factor and command_timeout_s must be > 0")
+        if not (math.isfinite(self.plan_ahead_s) and self.plan_ahead_s >= 0):
+            raise ValueError(f"plan_ahead_s must be finite and >= 0, got {self.plan_ahead_s!r}")
 
 
 class PlantCore:
@@ -132,6 +135,7 @@ class PlantCore:
         self.trajectories: list[StrutTrajectory] = []  # by start
         self.controller_holds: deque = deque(maxlen=HELD_TRAJECTORIES)  # (job_id, pass_index) the controller has
         self.gate = LockstepGate()
+        self.plan_ahead_until_s = -math.inf  # lock-step: sim time may run on to here after a scan (lockstep.py)
         self.pacer = RealTimePacer(settings.period_s, settings.real_time_factor)
         self.loop_end_s: float | None = None  # wall time the run reached end_time_s
         self._paced = (0, 0)  # cycles, missed at the last pace judgement
@@ -257,6 +261,8 @@ class PlantCore:
         runs, or is announced with its motion and force trajectory in hand (lockstep.py)."""
         if not self.lockstep or self.monitor is None or self.monitor.running is not None:
             return True
+        if self.sim.time_s + self.settings.period_s <= self.plan_ahead_until_s + 1e-9:
+            return True  # the machine holds its pose while the next pass is planned
         return pass_covered(self.monitor.scheduled, self.trajectories, self.controller_holds,
                             self.settings.wait_for_controller)
 
@@ -335,6 +341,7 @@ class PlantCore:
         if report is None:
             return
         m = report.measurement
+        self.plan_ahead_until_s = state.time_s + self.settings.plan_ahead_s
         self.outputs.pass_ended(report)
         self.events.count(f"passes_{report.status}")
         if m.burn_detected or m.stall_detected:  # until a pass without

@@ -17,6 +17,14 @@ force trajectory. Between passes the clock stands still while the planners plan,
 time a pass waits for is the pass planner's fixed ``start_delay_s``: one seed, one part,
 at any machine load.
 
+Planning ahead (issue 39). The next pass's path starts ``start_delay_s`` after the scan
+that ends a pass, whatever the planners take, and until it starts the machine only holds
+its reset pose: so after each scan the plant runs on ``plan_ahead_s`` (:data:`PLAN_AHEAD_S`)
+of sim time while the planners plan, and stands only if they need longer. The periods
+simulated are the same either way (the path's start does not depend on when the plan
+came), as long as the plan still comes before its path: ``plan_ahead_s`` stays below
+``start_delay_s`` less the input shaper's lag (tens of ms), which the pass planner checks.
+
 Units: s (plant time; wall time on a monotonic clock).
 """
 
@@ -28,6 +36,10 @@ from hex_control.plant.loop_timing import LoopTiming
 from hex_control.plant.pass_monitor import ScheduledPass
 from hex_control.plant.strut_trajectory import StrutTrajectory
 
+#: sim time (s) a lock-step plant runs on after a scan while the next pass is planned: the
+#: plant's and the pass planner's default (``plan_ahead_s``); below the pass planner's
+#: ``start_delay_s`` (0.6 s) less the shaper's lag, so every plan still comes before its path
+PLAN_AHEAD_S = 0.5
 STAMP_TOLERANCE_S = 1e-6  # a trajectory starting this little after its pass's path still covers it
 
 

@@ -5,8 +5,7 @@ checks against the scan and the parent, the refusals -- is the core
 on a worker thread, asks TestPose (``reachability_service``; '' = none) and publishes.
 
 In: /grinding/pass_command, /grinding/contour (each from its owner). Out: /grinding/force_trajectory,
-/motion/tool_path_raw, ~/status ("received", then planned or why not), /grinding/pass_result (REJECTED).
-"""
+/motion/tool_path_raw, ~/status ("received", then planned or why not), /grinding/pass_result (REJECTED)."""
 
 from __future__ import annotations
 
@@ -20,6 +19,7 @@ from rclpy.node import Node
 from hex_control.grinding.config import load_pass_planner_config
 from hex_control.grinding.pass_session import PassRequest, PassSession, Scan, Verdict, checked_positions, pass_start_s
 from hex_control.kinematics import load_machine
+from hex_control.plant.lockstep import PLAN_AHEAD_S
 from hex_control.ros.infra import interfaces as ifc
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.message_info import info_subscription
@@ -37,8 +37,9 @@ PARAMETERS = {
     "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),
     "contour_wait_s": Spec(5.0, "wall time a command waits for its contour (or the reachability check for "
                            "its answer) before it is refused", 0.01, 3600.0),
-    "start_delay_s": Spec(0.6, "from the later of the contour's plant time and the node clock to the path's "
-                          "start (s): the planning time charged between passes", 0.0, 60.0, read_only=False),
+    "start_delay_s": Spec(0.6, "scan (or node clock, if over plan_ahead_s later) to the path's start (s): the "
+                          "planning time charged between passes", 0.0, 60.0, read_only=False),
+    "plan_ahead_s": Spec(PLAN_AHEAD_S, "the plant's: sim s it runs on after a scan while this node plans", 0.0, 60.0),
     "reachability_service": Spec("kinematics/test_pose", "TestPose service for every pass's path; '' = none"),
     "machine_file": Spec("", "machine YAML whose bead_frame (if any) places the bead; '' = the config's"),
     "command_owner": Spec("sequence_planner", "node whose PassCommands are planned (relative to the namespace); "
@@ -162,7 +163,7 @@ class PassPlannerNode(Node):
     def _publish(self, request: PassRequest, planned) -> None:
         plan, path = planned.plan, planned.path
         start_s = pass_start_s(planned.contour_s, self.get_clock().now().nanoseconds * 1e-9,
-                               self.get_parameter("start_delay_s").value)
+                               self.get_parameter("start_delay_s").value, self.get_parameter("plan_ahead_s").value)
         msg = ForceTrajectory(job_id=request.job_id, pass_index=request.pass_index,
                               feed_speed_mm_s=request.feed_mm_s, planned_cut_depth_mm=float(plan.planned_depth_mm),
                               path_start_s=-float(path.grind_start_s),

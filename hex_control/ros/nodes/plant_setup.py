@@ -16,6 +16,7 @@ from hex_control.plant.drives import make_drive
 from hex_control.plant.force_table import ForceTableParameters
 from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.limits import ForceAxisLimits, StrutRateLimiter
+from hex_control.plant.lockstep import PLAN_AHEAD_S
 from hex_control.plant.machine import MachineParameters
 from hex_control.plant.pass_monitor import PassMonitor
 from hex_control.plant.pru3_machine import PRU3_SLIDER_DRIVES
@@ -72,6 +73,8 @@ PARAMETERS = {
     "clock_period_s": Spec(0.05, "sim time between /clock messages", 0.001, 10.0),
     "telemetry_period_s": Spec(0.1, "sim time batched into one /plant/telemetry message", 0.001, 10.0),
     "debug_streams": Spec(True, "publish true_wrench, deflection and tool_centre every period"),
+    "plan_ahead_s": Spec(PLAN_AHEAD_S, "lock-step: sim time run on after a scan while the next pass is planned; "
+                         "below the pass planner's start_delay_s less the shaper's lag (0 = stand still)", 0.0, 60.0),
     "controller_status_topic": Spec("force_controller/status", "latched status of the force controller: in "
                                     "lock-step a pass starts only once it holds the pass; '' = do not wait"),
     "table_start_mm": Spec(-1.0, "table position at start-up", -50.0, 50.0),
@@ -147,7 +150,8 @@ def build_core(p, outputs, events) -> tuple[PlantCore, StoredWorkpiece | None]:
                          cell=cell, locator=locator, strut_limiter=limiter)
     limits = ForceAxisLimits((p("retract_mm"), p("table_travel_max_mm")), p("overload_n"), table.contact_mm)
     settings = CoreSettings(p("mode"), period_s, p("real_time_factor"), p("command_timeout_s"), p("retract_mm"),
-                            p("table_start_mm"), p("end_time_s"), bool(p("controller_status_topic")))
+                            p("table_start_mm"), p("end_time_s"), bool(p("controller_status_topic")),
+                            p("plan_ahead_s"))
     core = PlantCore(settings, sim, axis_limits=limits, outputs=outputs, events=events, strut_names=strut_names,
                      monitor=monitor, check_struts=lambda lengths_m: machine_geometry.check_joint_positions_mm(
                          np.asarray(lengths_m) * 1000.0))
