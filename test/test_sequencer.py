@@ -238,8 +238,10 @@ def test_a_bead_too_high_for_the_deadline_ends_by_quit_now(tmp_path):
     _, result, _ = rig.finished
     assert result["reason"] == "quit" and result["material_remaining_mm"] > 1.5 and result["time_remaining_s"] >= 0
     assert result["passes"] == len(rig.commands) >= 1
-    process, charges, grid, cut_model = parse_planner_config(CONFIG)
-    process = dataclasses.replace(process, bead_width_mm=12.5, bead_length_mm=300.0)
+    process, charges, grid, _ = parse_planner_config(CONFIG)
+    # the policy's model: the cut of a pass planned on the estimated K1 (issue 42 item 2)
+    process, cut_model = rig.core.as_planned(dataclasses.replace(process, bead_width_mm=12.5, bead_length_mm=300.0)), \
+        rig.core.policy_model
     promised = solve(process, charges, grid.covering(60.0, 3.5), cut_model).lookup(60.0, 3.5)["expected_penalty"]
     clamped = solve(process, charges, grid, cut_model).lookup(60.0, 3.5)["expected_penalty"]
     assert rig.commands[0]["expected_penalty"] == pytest.approx(promised, rel=1e-9) and promised > clamped + 1.0

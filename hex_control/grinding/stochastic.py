@@ -127,3 +127,29 @@ def rayleigh_parameters(mean_mm, std_mm):
 def rayleigh_quantiles(mean, std, u):
     sigma, shift = rayleigh_parameters(mean, std)
     return shift + sigma * np.sqrt(-2.0 * np.log1p(-u))
+
+
+def planned_on_estimate(model: CutDepthModel, estimate_cv: float) -> tuple[CutDepthModel, float]:
+    """The cut of a pass planned on an estimate of K1 (issue 42 item 2): (the cut model, the mean factor).
+
+    The sequence planner plans each pass with eq. 4.6 at K-hat, the pass-rate predictor's K1,
+    and the pass grinds with its own K1: the thesis's pass-to-pass variation
+    (``model.relative_variation``, 10-20 %) about a level that K-hat itself misses by
+    ``estimate_cv`` (relative; the predictor's own prediction error). Both C1 and C2 of eq.
+    4.6 are proportional to 1/K1, so the cut is exactly delta-hat K-hat / K1: with K1
+    log-normal of mean K-hat and coefficient of variation c = sqrt(cv_pass^2 + cv_est^2),
+    the cut is log-normal with the same c and mean delta-hat (1 + c^2) (E[1/K1] > 1/E[K1]).
+    Returned: the ``cut`` source with that c and the log-normal PDF, and 1 + c^2, by which
+    the policy's mean cuts are scaled (the SDP solved with K1 / (1 + c^2)).
+
+    Why (measured, docs/results/issue42_grid.md): the planner's K1 follows the last pass's
+    draw (its first gain is about 0.85), so a pass after a hard one is planned shallow and
+    cut deep; jobs re-solved on it overground 0.7-1.8 % of the time against the 0.3 % the
+    thesis's model (``c1``, shifted Rayleigh, the mean at 1/E[K1]) promised.
+    """
+    if not (math.isfinite(estimate_cv) and 0 <= estimate_cv < 1):
+        raise ValueError(f"estimate_cv must be in [0, 1), got {estimate_cv!r}")
+    cv = math.hypot(model.relative_variation, estimate_cv)
+    if not cv < 1:
+        raise ValueError(f"the combined variation {cv:.3f} must be below 1")
+    return CutDepthModel("cut", cv, "lognormal"), 1.0 + cv * cv
