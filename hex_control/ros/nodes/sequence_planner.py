@@ -4,8 +4,7 @@ solves policies off the executor thread and serves ``~/grind_bead`` (a refused g
 reason in the log and /diagnostics; a resumed job reports on ``~/job_feedback``, ``~/job_result``).
 Out: grinding/pass_command (latched). In, each from its one node: grinding/pass_result (plant;
 REJECTED: pass_planner), grinding/contour (plant's scans), grinding/force_trajectory and
-pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3).
-"""
+pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3)."""
 
 from __future__ import annotations
 
@@ -56,7 +55,9 @@ PARAMETERS = {
         ("goal_height_tolerance_mm", "the same for the mean height (and 25 %)", 0.0, 100.0, False),
         ("max_overgrind_mm", "a result removing more than the material plus this is refused", 0.0, 100.0, False),
         ("scan_tolerance_mm", "a result's cut off the removal of the plant's scans by more than this is refused",
-         0.0, 10.0, False))},
+         0.0, 10.0, False),
+        ("k1_estimate_cv", "relative error of the K1 the passes are planned on (issue 42); 0 = K1 known", 0.0, 1.0,
+         False))},
 }
 
 
@@ -104,9 +105,9 @@ class SequencePlannerNode(Node):
         self._do(self.core.resume(now()))
 
     def _settings(self) -> SequencerSettings:
-        return SequencerSettings(**{f.name: self.get_parameter(f.name).value for f in
-                                    dataclasses.fields(SequencerSettings) if f.name != "job_dir"},
-                                 job_dir=Path(self.get_parameter("job_dir").value))
+        values = {f.name: self.get_parameter(f.name).value for f in dataclasses.fields(SequencerSettings)}
+        return SequencerSettings(**values | {"job_dir": Path(values["job_dir"]),
+                                             "k1_estimate_cv": values["k1_estimate_cv"] or None})
 
     def _do(self, out) -> None:
         """Send what the core decided."""
