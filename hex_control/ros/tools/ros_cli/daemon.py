@@ -483,6 +483,8 @@ def serve() -> int:
         def handle(self):
             daemon.last_request = time.monotonic()
             line = self.rfile.readline()
+            if not line:
+                return  # a connection only tried (hexctl daemon status), or a client gone
             try:
                 message = json.loads(line)
                 if message.get("op") == "graph":
@@ -498,7 +500,10 @@ def serve() -> int:
                     answer = {"error": f"unknown request {line[:80]!r}"}
             except (VerbError, ValueError, KeyError, TypeError) as exc:
                 answer = {"error": str(exc)}
-            self.wfile.write(json.dumps(answer).encode() + b"\n")
+            try:
+                self.wfile.write(json.dumps(answer).encode() + b"\n")
+            except OSError:
+                pass  # the client went (an interrupted verb)
 
     class Server(socketserver.ThreadingMixIn, socketserver.UnixStreamServer):
         daemon_threads = True
