@@ -18,7 +18,7 @@ from hex_control.grinding.contour import weld_bead
 from hex_control.grinding.measured_part import Profile
 from hex_control.grinding.rollout import charge_spread, run_on_estimate
 from hex_control.grinding.sdp import solve
-from hex_control.grinding.sequencer import Sequencer, SequencerSettings
+from hex_control.grinding.sequencer import K1_ESTIMATE_CV, Sequencer, SequencerSettings
 from hex_control.grinding.stochastic import planned_on_estimate
 
 CONFIG = yaml.safe_load(config_file("sequence_planner.yaml").read_text())
@@ -55,7 +55,7 @@ def test_the_planner_solves_with_it_unless_told_the_thesis_model(tmp_path):
     core = Sequencer(SequencerSettings(tmp_path / "a"), CONFIG)
     assert core.policy_model.source == "cut" and core.mean_factor > 1
     assert core.as_planned(JOB).specific_energy_j_mm3 == pytest.approx(10.0 / core.mean_factor)
-    thesis = Sequencer(SequencerSettings(tmp_path / "b", k1_estimate_cv=None), CONFIG)
+    thesis = Sequencer(SequencerSettings(tmp_path / "b"), CONFIG, k1_estimate_cv=None)
     assert thesis.policy_model == MODEL and thesis.mean_factor == 1.0 and thesis.as_planned(JOB) == JOB
 
 
@@ -87,7 +87,7 @@ def test_jobs_planned_on_the_predictors_k1_realize_the_charge_the_start_expects(
     x0, t0 = Profile(bead.x_mm, bead.z_mm, bead.parent_mm).mean_mm, 45.0
     grid = GRID.covering(t0, x0)
     old = solve(JOB_FORCE, CHARGES, grid, MODEL)
-    model, factor = planned_on_estimate(MODEL, SequencerSettings(None).k1_estimate_cv)
+    model, factor = planned_on_estimate(MODEL, K1_ESTIMATE_CV)
     new = solve(dataclasses.replace(JOB_FORCE, specific_energy_j_mm3=10.0 / factor), CHARGES, grid, model)
     (old_charge, old_x), (new_charge, new_x) = _on_estimate(old, t0, x0), _on_estimate(new, t0, x0)
     old_j, new_j = old.expected_penalty(t0, x0), new.expected_penalty(t0, x0)

@@ -84,6 +84,11 @@ COMPLETED_PASS, ABORTED_PASS, REJECTED_PASS, FAULTED_PASS = 0, 1, 2, 3
 STATUS_NAMES = {COMPLETED_PASS: "completed", ABORTED_PASS: "aborted", REJECTED_PASS: "rejected",
                 FAULTED_PASS: "faulted"}
 _KEPT_SCANS = 16  # the plant's latest scans kept (a job's passes before and after the one in flight)
+#: the error of the planner's K1 (the pass-rate predictor's) against the level it estimates,
+#: relative: the predictor's after the job's first pass (a 0.98, W 0.5, V 2.25 from its
+#: stationary start: 13 %; 10 % after two passes, 8 % steady); the policy's cut model is then
+#: ``stochastic.planned_on_estimate``'s (issue 42 item 2)
+K1_ESTIMATE_CV = 0.13
 
 
 @dataclass(frozen=True)
@@ -103,11 +108,6 @@ class SequencerSettings:
     goal_height_tolerance_mm: float = 0.25  # a goal's mean height against the scanned (or 25 %)
     max_overgrind_mm: float = 2.0  # no pass removes more than the material plus this (the force axis's travel)
     scan_tolerance_mm: float = 1e-3  # a result's removal against the scans' (mm of mean height)
-    #: the error of the planner's K1 (the pass-rate predictor's) against the level it estimates,
-    #: relative: the predictor's after the job's first pass (a 0.98, W 0.5, V 2.25 from its
-    #: stationary start: 13 %; 10 % after two passes, 8 % steady); the policy's cut model is then
-    #: ``stochastic.planned_on_estimate``'s (issue 42 item 2); None: the configured cut model (the thesis's)
-    k1_estimate_cv: float | None = 0.13
 
 
 @dataclass(frozen=True)
@@ -246,7 +246,8 @@ class Sequencer:
 
     def __init__(self, settings: SequencerSettings, planner_config: dict, health=None,
                  log: Callable[[str, str], None] | None = None,
-                 predictor_heard: Callable[[], bool] = lambda: False):
+                 predictor_heard: Callable[[], bool] = lambda: False, *,
+                 k1_estimate_cv: float | None = K1_ESTIMATE_CV):
         # the part as measured in the decisions (issue 42): its own section, the rest is the SDP's
         part = planner_config.get("measured_part")
         if part is None:
@@ -256,8 +257,9 @@ class Sequencer:
         self.settings, self.base_config = settings, planner_config
         _, self.charges, self.grid, self.cut_model = parse_planner_config(planner_config)
         # the cut of a pass planned on the predictor's K1, which the policy is solved for
-        self.policy_model, self.mean_factor = (self.cut_model, 1.0) if settings.k1_estimate_cv is None \
-            else planned_on_estimate(self.cut_model, settings.k1_estimate_cv)
+        # (``k1_estimate_cv`` None: the configured cut model, the thesis's)
+        self.policy_model, self.mean_factor = (self.cut_model, 1.0) if k1_estimate_cv is None \
+            else planned_on_estimate(self.cut_model, k1_estimate_cv)
         self._profile: tuple | None = None  # (job id, passes, Profile) of the plant's latest scan
         self._machine_force_n = math.nan  # the configured F_max of the job being started (N)
         self._goal_profile: Profile | None = None  # the running goal's bead, if the goal gave its profile
