@@ -64,6 +64,17 @@ def spawn(ros_env, tmp_path, request):
             print(f"--- {process.log_path.name} (exit {process.process.returncode}):\n{process.output()[-4000:]}")
 
 
+#: the modules whose tests run whole graphs or builds (tens of seconds each): collected first, so
+#: that `make test`'s two workers take them early and end together on the short tests (longest
+#: first); each module stays whole, its fixtures set up once
+SLOW_FIRST = ("test_end_to_end.py", "test_colcon_build.py", "test_campaign.py", "test_attacks.py", "test_ros_cli.py",
+              "test_bench.py", "test_hostile_inputs.py", "test_determinism.py", "test_demo.py")
+
+
+def pytest_collection_modifyitems(items):
+    items.sort(key=lambda item: SLOW_FIRST.index(item.path.name) if item.path.name in SLOW_FIRST else len(SLOW_FIRST))
+
+
 @pytest.hookimpl(wrapper=True)
 def pytest_runtest_makereport(item, call):
     report = yield

@@ -9,7 +9,6 @@ also plays the attacker the threat model leaves standing (docs/graph.md): a proc
 takes the name of the input's source."""
 
 import math
-import time
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
@@ -98,7 +97,9 @@ def fuzz(session, node, topics, examples: int) -> None:
     publishers = {topic: impostor(session, owner, node).create_publisher(cls, topic, qos)
                   for topic, cls, qos, owner in topics}
     strategies = {topic: message_strategy(cls) for topic, cls, _, _ in topics}
-    time.sleep(1.0)  # let the publishers match
+    # every input has its node in the graph: a message sent before its publisher matched is lost
+    session.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers.values()), 30.0,
+                       "the fuzzed topics' subscribers")
 
     @settings(max_examples=examples, deadline=None, database=None, derandomize=True,
               suppress_health_check=list(HealthCheck))
@@ -137,8 +138,13 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         node.create_subscription(ForceAxisCommand, "/plant/force_axis_command",
                                  lambda m: commands.append(m.position_mm), 100)
         node.create_subscription(JointState, "/plant/strut_command", lambda m: struts.append(list(m.position)), 100)
-        node.create_subscription(DiagnosticArray, "/diagnostics", lambda m: diagnostics.update(
-            {s.name: {kv.key: kv.value for kv in s.values} for s in m.status}), 100)
+        plant_reports = []  # the plant's refusal counters, report by report
+
+        def heard(msg):
+            diagnostics.update({s.name: {kv.key: kv.value for kv in s.values} for s in msg.status})
+            plant_reports.extend(_refusals(s) for s in msg.status if s.name == "/plant")
+
+        node.create_subscription(DiagnosticArray, "/diagnostics", heard, 100)
         session.spin_until(lambda: 0 in session.record.contours, 60.0, "the graph")
         fuzz(session, node, UPSTREAM, 2000)
         refuse_a_hostile_command(session, node)
@@ -147,10 +153,11 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
         assert commands and all(math.isfinite(c) and -2.0 <= c <= 2.0 for c in commands)
         assert all(math.isfinite(v) and 0 < v < 10.0 for row in struts for v in row)
         fuzz(session, node, PLANT, 1000)  # the plant's own inputs, straight at it
-        time.sleep(2.0)
-        end = time.monotonic() + 3.0
-        while time.monotonic() < end:
-            session.executor.spin_once(timeout_sec=0.05)
+        # the plant has had the burst once its refusal counters stand still from one report to
+        # the next (1 s apart), each kind counted; a crash in it ends the process (spin_until says)
+        before = len(plant_reports)
+        session.spin_until(lambda: len(plant_reports) >= before + 2 and plant_reports[-1] == plant_reports[-2]
+                           and _plant_refused(plant_reports[-1]), 30.0, "the plant's report of the fuzzed inputs")
         assert session.graph.dead() == {}, {n: session.graph.log_tail(n) for n in session.graph.dead()}
     rejected = {name: {k: int(v) for k, v in values.items() if k.startswith(("rejected", "ignored", "foreign"))}
                 for name, values in diagnostics.items()}
@@ -168,3 +175,14 @@ def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
     assert plant.get("foreign_force_command", 0) > 0 and plant.get("foreign_controller_status", 0) > 0, plant
     assert plant.get("rejected_strut_command", 0) + plant.get("foreign_strut_command", 0) > 0, plant
     assert plant.get("rejected_strut_trajectory", 0) > 0, plant
+
+
+def _refusals(status) -> dict[str, int]:
+    return {kv.key: int(kv.value) for kv in status.values if kv.key.startswith(("rejected", "foreign"))}
+
+
+def _plant_refused(count: dict[str, int]) -> bool:
+    """The plant counted each kind of fuzzed input the test asserts it refused."""
+    return (count.get("foreign_force_command", 0) > 0 and count.get("foreign_controller_status", 0) > 0
+            and count.get("rejected_strut_command", 0) + count.get("foreign_strut_command", 0) > 0
+            and count.get("rejected_strut_trajectory", 0) > 0)
