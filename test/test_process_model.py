@@ -55,7 +55,7 @@ def test_the_planner_solves_with_it_unless_told_the_thesis_model(tmp_path):
     core = Sequencer(SequencerSettings(tmp_path / "a"), CONFIG)
     assert core.policy_model.source == "cut" and core.mean_factor > 1
     assert core.as_planned(JOB).specific_energy_j_mm3 == pytest.approx(10.0 / core.mean_factor)
-    thesis = Sequencer(SequencerSettings(tmp_path / "b"), CONFIG, k1_estimate_cv=None)
+    thesis = Sequencer(SequencerSettings(tmp_path / "b", k1_estimate_cv=None), CONFIG)
     assert thesis.policy_model == MODEL and thesis.mean_factor == 1.0 and thesis.as_planned(JOB) == JOB
 
 

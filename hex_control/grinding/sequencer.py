@@ -108,6 +108,7 @@ class SequencerSettings:
     goal_height_tolerance_mm: float = 0.25  # a goal's mean height against the scanned (or 25 %)
     max_overgrind_mm: float = 2.0  # no pass removes more than the material plus this (the force axis's travel)
     scan_tolerance_mm: float = 1e-3  # a result's removal against the scans' (mm of mean height)
+    k1_estimate_cv: float | None = K1_ESTIMATE_CV  # None: the configured cut model, the thesis's
 
 
 @dataclass(frozen=True)
@@ -246,8 +247,7 @@ class Sequencer:
 
     def __init__(self, settings: SequencerSettings, planner_config: dict, health=None,
                  log: Callable[[str, str], None] | None = None,
-                 predictor_heard: Callable[[], bool] = lambda: False, *,
-                 k1_estimate_cv: float | None = K1_ESTIMATE_CV):
+                 predictor_heard: Callable[[], bool] = lambda: False):
         # the part as measured in the decisions (issue 42): its own section, the rest is the SDP's
         part = planner_config.get("measured_part")
         if part is None:
@@ -257,9 +257,9 @@ class Sequencer:
         self.settings, self.base_config = settings, planner_config
         _, self.charges, self.grid, self.cut_model = parse_planner_config(planner_config)
         # the cut of a pass planned on the predictor's K1, which the policy is solved for
-        # (``k1_estimate_cv`` None: the configured cut model, the thesis's)
-        self.policy_model, self.mean_factor = (self.cut_model, 1.0) if k1_estimate_cv is None \
-            else planned_on_estimate(self.cut_model, k1_estimate_cv)
+        estimate_cv = settings.k1_estimate_cv  # None: the configured cut model (the thesis's)
+        self.policy_model, self.mean_factor = (self.cut_model, 1.0) if estimate_cv is None \
+            else planned_on_estimate(self.cut_model, estimate_cv)
         self._profile: tuple | None = None  # (job id, passes, Profile) of the plant's latest scan
         self._machine_force_n = math.nan  # the configured F_max of the job being started (N)
         self._goal_profile: Profile | None = None  # the running goal's bead, if the goal gave its profile
