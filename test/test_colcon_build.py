@@ -65,6 +65,11 @@ def _colcon(workspace: Path, *arguments: str, timeout_s: float = 900.0) -> subpr
     venv = Path(sys.prefix)  # the underlay: the ROS 2 wheels, tf2_msgs built by make setup
     env = dict(os.environ, AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
     env.pop("COLCON_PREFIX_PATH", None)
+    # colcon's make gets -j<cores> -l<cores> unless MAKEFLAGS names -j or -l (under `make test`
+    # it is set, empty): beside the suite's other worker the load stays above the core count,
+    # so -l built the interface package one file at a time (222 s at load 10 for a full
+    # build); a job per core, whatever the load
+    env["MAKEFLAGS"] = f"-j{os.cpu_count() or 2}"
     return subprocess.run([str(venv / "bin/colcon"), "--log-base", str(workspace / "log"), *arguments], cwd=workspace,
                           env=env, capture_output=True, text=True, timeout=timeout_s)
 
