@@ -4,6 +4,7 @@ mcap-ros2-support's decoder -- the schema text alone, without rclpy -- field for
 Issue 40 item 3: bag info as ros2's (size, start, end, duration); play at the recorded
 pace (against the recorded timeline), with --loop, --clock and --remap."""
 
+import math
 import re
 import signal
 import subprocess
@@ -322,6 +323,18 @@ def test_the_unbatcher_gives_every_period_s_wrench_and_command_once():
         (0, 1.0, "tool"), (5_000_000, 2.0, "tool"), (10_000_000, 3.0, "tool"), (15_000_000, 4.0, "tool")]
     assert [(c.header.stamp.nanosec, c.position_mm) for c in commands] == [
         (0, -1.5), (5_000_000, -2.0), (10_000_000, -2.5)]
+    # a restarted plant (its clock back at 0): a new timeline, whose first sample has no command
+    out = list(unbatch(serialize_message(PlantTelemetry(time_s=[0.0, 0.005], measured_force_n=[5.0, 6.0],
+                                                        table_command_mm=[-1.0, -1.1]))))
+    assert [t for t, _, _ in out] == ["plant/wrench", "plant/wrench", "plant/force_axis_command"]
+    # another process's batches: arrays that disagree, a stamp that is no plant time, a flood
+    for hostile in (PlantTelemetry(time_s=[1.0, 1.005], measured_force_n=[1.0]),
+                    PlantTelemetry(time_s=[1.0], measured_force_n=[1.0], table_command_mm=[1.0, 2.0]),
+                    PlantTelemetry(time_s=[math.nan], measured_force_n=[1.0]),
+                    PlantTelemetry(time_s=[-1.0], measured_force_n=[1.0]),
+                    PlantTelemetry(time_s=[0.0] * 100_001, measured_force_n=[0.0] * 100_001)):
+        assert list(unbatch(serialize_message(hostile))) == []
+    assert unbatch.refused == 5 and unbatch.last_time_s == 0.005
 
 
 def test_a_plant_state_carries_the_force_command_held_over_its_period():

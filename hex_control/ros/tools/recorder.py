@@ -41,6 +41,8 @@ BATCHED_IN_TELEMETRY = ("plant/wrench", "plant/force_axis_command", "plant/strut
                         "plant/deflection", "plant/tool_centre")
 #: how the plant offers the per-period streams (reliable, volatile, depth 100): what the unbatched ones say
 PER_PERIOD_QOS = {"history": "keep_last", "depth": 100, "reliability": "reliable", "durability": "volatile"}
+MAX_UNBATCHED = 100_000  # samples of one telemetry batch unbatched at most (the plant sends 20)
+MAX_STAMP_S = 2.0**31  # a ROS stamp's seconds
 DEPTH = 1000  # a burst of this many messages between two executor turns is kept
 ACK_WAIT_S = 2.0  # play: at the end, wait this long in all for reliable subscribers' acknowledgements
 
@@ -60,8 +62,11 @@ class Unbatcher:
     (topic relative to the cell, type name, CDR bytes) of ``plant/wrench`` (the measured
     normal force, frame ``tool``, stamped with the sample's plant time) and
     ``plant/force_axis_command`` (the table's target in mm, stamped with the state it
-    answered: the sample before, whose period it was held over). A sample at or before the
-    last one taken (a holding plant's state sent again) is skipped."""
+    answered: the sample before, whose period it was held over). The last sample again (a
+    holding plant's state) is skipped; an earlier one starts a new timeline (a restarted
+    plant: its first sample has no command). A batch whose arrays disagree, that holds over
+    :data:`MAX_UNBATCHED` samples or a stamp that is not a finite plant time (anyone may
+    publish on the topic) gives nothing and is counted in ``refused``."""
 
     def __init__(self):
         from geometry_msgs.msg import WrenchStamped
@@ -69,6 +74,7 @@ class Unbatcher:
         from hex_control_msgs.msg import ForceAxisCommand
 
         self.last_time_s = None
+        self.refused = 0
         self._wrench, self._command = WrenchStamped(), ForceAxisCommand()
         self._wrench.header.frame_id = "tool"
 
@@ -79,18 +85,23 @@ class Unbatcher:
         from hex_control_msgs.msg import PlantTelemetry
 
         batch = deserialize_message(data, PlantTelemetry)
+        times, forces, commands = batch.time_s, batch.measured_force_n, batch.table_command_mm
+        if not (len(times) == len(forces) <= MAX_UNBATCHED and len(commands) in (0, len(times))
+                and all(0.0 <= t <= MAX_STAMP_S for t in times)):
+            self.refused += 1
+            return
         wrench, command = self._wrench, self._command
-        for k, time_s in enumerate(batch.time_s):
-            if self.last_time_s is not None and not time_s > self.last_time_s:
+        for k, time_s in enumerate(times):
+            last, self.last_time_s = self.last_time_s, time_s
+            if last is not None and time_s == last:
                 continue
             wrench.header.stamp = time_msg(time_s)
-            wrench.wrench.force.z = batch.measured_force_n[k]
+            wrench.wrench.force.z = forces[k]
             yield "plant/wrench", "geometry_msgs/msg/WrenchStamped", serialize_message(wrench)
-            if self.last_time_s is not None and k < len(batch.table_command_mm):
-                command.header.stamp = time_msg(self.last_time_s)
-                command.position_mm = batch.table_command_mm[k]
+            if last is not None and time_s > last and commands:
+                command.header.stamp = time_msg(last)
+                command.position_mm = commands[k]
                 yield "plant/force_axis_command", "hex_control_msgs/msg/ForceAxisCommand", serialize_message(command)
-            self.last_time_s = time_s
 
 
 class Recorder:
