@@ -59,7 +59,10 @@ def test_itae_optimization_improves_on_the_start_and_repeats_with_a_seed():
     first = optimize_gains("ctc", duration_s=0.2, generations=2, population=6, seed=1)
     best, itae, start = first
     assert itae < 0.5 * start and isinstance(best, Gains)
-    assert optimize_gains("ctc", duration_s=0.2, generations=2, population=6, seed=1) == first
+    # the same seed, the same gains: on a shorter run (a generation's mutation and crossover
+    # drawn from the seed all the same), since each optimization simulates every candidate
+    short = optimize_gains("ctc", duration_s=0.1, generations=1, population=4, seed=2)
+    assert optimize_gains("ctc", duration_s=0.1, generations=1, population=4, seed=2) == short
 
 
 def test_a_diverging_candidate_raises_and_scores_infinite():
