@@ -28,7 +28,7 @@ BEAD = weld_bead(length_mm=60.0, height_mm=3.0, ripple_mm=0.1, seed=2)
 def start_planner(ros, spawn, *arguments):
     # on sim time with no /clock: the node clock says 0, so a path starts from its contour's stamp
     spawn(["hex-pass-planner", "--ros-args", "-p", "use_sim_time:=true", "-p", "contour_wait_s:=1.0", "-p",
-           "start_delay_s:=0.0", *arguments])
+           "start_delay_s:=0.0", "-p", "plan_ahead_s:=0.0", *arguments])
     node = ros.node("pass_client")
     # the planner obeys the sequence planner's commands and the plant's contours only
     commander, scanner = ros.node("sequence_planner"), ros.node("plant")

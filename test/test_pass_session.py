@@ -85,8 +85,9 @@ def test_a_command_waits_for_its_contour_and_is_planned_on_it_as_before():
     # the path starts start_delay_s after the later of the scan and the node's clock
     assert pass_start_s(40.0, 0.0, 0.6) == pytest.approx(40.6) and pass_start_s(40.0, 50.0, 0.0) == 50.0
     # ... after the scan while the clock is within plan_ahead_s of it (a lock-step plant runs on that far)
-    assert pass_start_s(40.0, 40.5, 0.6, 0.5) == pytest.approx(40.6)
-    assert pass_start_s(40.0, 40.51, 0.6, 0.5) == pytest.approx(41.11)
+    assert pass_start_s(40.0, 40.4, 0.6, 0.4) == pytest.approx(40.6)
+    assert pass_start_s(40.0, 40.41, 0.6, 0.4) == pytest.approx(41.01)
+    assert pass_start_s(40.0, 40.0, 0.2, 0.4) == pytest.approx(40.6)  # a shaped path not before the plant stands
 
 
 def test_a_contour_without_a_job_id_serves_any_job():

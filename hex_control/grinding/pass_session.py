@@ -164,12 +164,20 @@ def checked_positions(path: ToolPath) -> np.ndarray:
     return np.vstack([path.positions_mm[::10], path.positions_mm[-1:]])
 
 
+#: a path starts at least this long (s) after where a lock-step plant stands after a scan: the
+#: input shaper starts a shaped path its lag early (ZVD: half a period of the structural mode,
+#: 0.1 s at the shipped machines' 5 Hz), and as much again to spare
+SHAPER_LAG_MARGIN_S = 0.2
+
+
 def pass_start_s(contour_s: float, clock_s: float, start_delay_s: float, plan_ahead_s: float = 0.0) -> float:
     """When the pass's path starts (s, plant clock): ``start_delay_s`` after the scan it was
     planned on while the node's clock is within ``plan_ahead_s`` of that scan, else after the
     clock. In lock-step the plant runs on at most ``plan_ahead_s`` after a scan while the
     planners plan, then stands (plant/lockstep.py): so the start, and the delay charged for
-    planning, are the same at any load."""
+    planning, are the same at any load. The delay is at least ``plan_ahead_s`` and
+    :data:`SHAPER_LAG_MARGIN_S` more, or the plan could come after its path had begun."""
+    start_delay_s = max(start_delay_s, plan_ahead_s + SHAPER_LAG_MARGIN_S if plan_ahead_s > 0 else 0.0)
     return (contour_s if clock_s <= contour_s + plan_ahead_s + 1e-9 else clock_s) + start_delay_s
 
 

@@ -23,7 +23,8 @@ its reset pose: so after each scan the plant runs on ``plan_ahead_s`` (:data:`PL
 of sim time while the planners plan, and stands only if they need longer. The periods
 simulated are the same either way (the path's start does not depend on when the plan
 came), as long as the plan still comes before its path: ``plan_ahead_s`` stays below
-``start_delay_s`` less the input shaper's lag (tens of ms), which the pass planner checks.
+``start_delay_s`` less the input shaper's lag (0.1 s for the shipped machines' 5 Hz ZVD),
+which the pass planner makes sure of.
 
 Units: s (plant time; wall time on a monotonic clock).
 """
@@ -38,8 +39,9 @@ from hex_control.plant.strut_trajectory import StrutTrajectory
 
 #: sim time (s) a lock-step plant runs on after a scan while the next pass is planned: the
 #: plant's and the pass planner's default (``plan_ahead_s``); below the pass planner's
-#: ``start_delay_s`` (0.6 s) less the shaper's lag, so every plan still comes before its path
-PLAN_AHEAD_S = 0.5
+#: ``start_delay_s`` (0.6 s) less the shaper's lag (a 5 Hz ZVD: 0.1 s), so every plan still
+#: comes before its path (pass_session.SHAPER_LAG_MARGIN_S)
+PLAN_AHEAD_S = 0.4
 STAMP_TOLERANCE_S = 1e-6  # a trajectory starting this little after its pass's path still covers it
 
 
