@@ -17,6 +17,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 
 from hex_control.bench.topic_tools import timed_hexctl
+from hex_control.ros.tools.ros_cli import daemon as cli_daemon
 from hex_control_msgs.msg import Contour
 from ros_harness import wait_until
 
@@ -191,11 +192,11 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon
     node = ros.node("contour_publisher")
     node.create_publisher(Contour, "/cli/grinding/contour", LATCHED).publish(
         Contour(job_id="latched", pass_index=3, x_mm=[0.0, 1.5], z_mm=[0.25, 0.5]))
-    # once the daemon's graph has the topic (the first echo would wait for that, as its own node
-    # would) the daemon has subscribed to it, before any echo asked: the first echo is as quick
-    # as the next ones (subscribing at the first echo, it took up to 3.1 s beside two burners)
-    wait_until(lambda: "/cli/grinding/contour" in hexctl(ros_env, "topic", "list").stdout.split(), 60.0,
-               what="the topic in the daemon's graph")
+    # the daemon subscribes to a latched topic when its graph shows it, before any echo asks,
+    # and holds its message (subscribing at the first echo, that echo waited for the publisher
+    # to match: up to 3.1 s beside two CPU burners); an echo then answers from memory
+    wait_until(lambda: (cli_daemon.held_topics() or {}).get("/cli/grinding/contour") == 1, 60.0,
+               what="the daemon holding the latched message unasked")
     verbs = []
     for attempt in range(TRIES):
         _whole, _start_up, verb_s, echoed = timed_hexctl(ros_env, "topic", "echo", "/cli/grinding/contour", "--once",

@@ -128,6 +128,13 @@ def request(message: dict, timeout_s: float = 5.0) -> dict | None:
         return None
 
 
+def held_topics() -> dict[str, int] | None:
+    """The latched topics the daemon holds, each with the number of its messages stored; None
+    without a daemon."""
+    answer = request({"op": "held"})
+    return None if answer is None else answer["topics"]
+
+
 def settled_graph(max_wait_s: float) -> dict | None:
     """The daemon's graph once settled (at most ``max_wait_s``), or None without a daemon."""
     end = time.monotonic() + max_wait_s
@@ -489,6 +496,8 @@ def serve() -> int:
                 message = json.loads(line)
                 if message.get("op") == "graph":
                     answer = daemon.graph_answer()
+                elif message.get("op") == "held":  # the latched topics held, with their messages counted
+                    answer = {"topics": {topic: len(held.messages) for topic, held in list(daemon.latched.items())}}
                 elif message.get("op") == "status":
                     answer = {"pid": os.getpid(), "age_s": time.monotonic() - daemon.started}
                 elif message.get("op") == "stop":
