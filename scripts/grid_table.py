@@ -40,7 +40,13 @@ def summary(job: dict) -> dict:
     return {"seed": goal["seed"], "within": within, "highest": part["highest_mm"], "charge": outcome["total_charge"],
             "expected": job["expected_penalty_at_start"], "passes": outcome["passes"],
             "time_left": outcome["time_remaining_s"], "x": outcome["material_remaining_mm"],
-            "left_time_outside": (not within) and outcome["time_remaining_s"] >= shortest_s}
+            "left_time_outside": (not within) and outcome["time_remaining_s"] >= shortest_s,
+            # the K1 the plant drew for the job's passes (its jobs' measured K1): a soft seed cuts deep
+            "k1": [p["measured_specific_energy_j_mm3"] for p in job["passes"] if "measured_specific_energy_j_mm3" in p]}
+
+
+def _mean(values) -> float:
+    return sum(values) / len(values) if values else float("nan")
 
 
 def table(root: Path) -> list[dict]:
@@ -57,7 +63,8 @@ def table(root: Path) -> list[dict]:
                      "seeds": sorted(i["seed"] for i in items), "within": sum(i["within"] for i in items),
                      "worst_highest_mm": max(i["highest"] for i in items), "mean_charge": charge,
                      "mean_expected_j": expected, "charge_over_j": charge / expected if expected > 0 else float("nan"),
-                     "ended_early_outside": sum(i["left_time_outside"] for i in items)})
+                     "ended_early_outside": sum(i["left_time_outside"] for i in items),
+                     "mean_k1": _mean([k for i in items for k in i["k1"]])})
     return rows
 
 
@@ -69,13 +76,14 @@ def main(argv=None) -> int:
         print(f"no directory {args.runs}", file=sys.stderr)
         return 2
     print("| machine | bead mm | deadline s | code | jobs (seeds) | within +-0.1 mm | worst highest mm | "
-          "mean charge | mean J at start | charge / J | ended with a pass's time left, outside |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+          "mean charge | mean J at start | charge / J | ended with a pass's time left, outside | mean K1 measured |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in table(args.runs):
         seeds = ",".join(str(s) for s in r["seeds"])
         print(f"| {r['machine']} | {r['bead_mm']:g} | {r['deadline_s']:g} | {r['variant']} | {r['jobs']} ({seeds}) | "
               f"{r['within']}/{r['jobs']} | {r['worst_highest_mm']:+.3f} | {r['mean_charge']:.4f} | "
-              f"{r['mean_expected_j']:.4f} | {r['charge_over_j']:.2f} | {r['ended_early_outside']} |")
+              f"{r['mean_expected_j']:.4f} | {r['charge_over_j']:.2f} | {r['ended_early_outside']} | "
+              f"{r['mean_k1']:.2f} |")
     print()
     print("| machine | bead mm | code | jobs | mean charge | mean J at start | charge / J |")
     print("|---|---|---|---|---|---|---|")
