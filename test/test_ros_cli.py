@@ -232,6 +232,33 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon
             assert bound_s <= time.monotonic() - start < bound_s + 5.0  # the bound plus start-up, not forever
 
 
+def test_the_daemon_holds_the_newest_latched_message_and_lets_go_of_streams(ros, ros_env, daemon):
+    """A depth-1 latched topic republished: an echo --once prints the newest message, as a
+    new subscriber would get it (holding the first 100, it printed the first one held). A
+    transient-local stream (the plant's telemetry) is not held: its CPU is the cell's."""
+    node = ros.node("republisher")
+    contour = node.create_publisher(Contour, "/cli/held/contour", LATCHED)
+    contour.publish(Contour(job_id="first", pass_index=1))
+    wait_until(lambda: (cli_daemon.held_topics() or {}).get("/cli/held/contour") == 1, 60.0,
+               what="the first contour held")
+    contour.publish(Contour(job_id="second", pass_index=2))
+    wait_until(lambda: hexctl(ros_env, "topic", "echo", "/cli/held/contour", "--once", "--field",
+                              "pass_index").stdout == "2\n---\n", 60.0, what="the newest contour echoed")
+    assert cli_daemon.held_topics()["/cli/held/contour"] == 1  # the publisher's history: one message
+    stream = node.create_publisher(Float64, "/cli/held/stream", QoSProfile(
+        depth=100, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    stream.publish(Float64(data=1.0))
+    wait_until(lambda: "/cli/held/stream" in (cli_daemon.held_topics() or {}), 60.0, what="the stream held first")
+
+    def publish_and_ask():  # five messages a poll: well over STREAM_HZ however slow the polls
+        for _ in range(5):
+            stream.publish(Float64(data=2.0))
+        return "/cli/held/stream" not in (cli_daemon.held_topics() or {"/cli/held/stream": 0})
+    wait_until(publish_and_ask, 60.0, what="the daemon letting go of the stream")
+    echoed = hexctl(ros_env, "topic", "echo", "/cli/held/stream", "--once", "--timeout", "30")
+    assert echoed.returncode == 0 and echoed.stdout.startswith("data: "), echoed
+
+
 def test_topic_list_is_complete_every_time_and_topic_info_names_the_endpoints(ros, ros_env, shaper, daemon):
     """list waits until discovery has settled; at a fixed 1 s it listed 2, 15 and 23 of 29 topics."""
     node = ros.node("many_topics")

@@ -58,6 +58,11 @@ NOT_HELD = ("/rosout",)
 #: the requests' and answers' format: part of the socket's name, so that a verb never asks a
 #: daemon of another hexctl version (that one ends when idle)
 PROTOCOL = 2
+#: a latched topic held unasked with more live messages than this a second (Hz; over
+#: STREAM_WINDOW_S) is a stream (the plant's telemetry, its true wrench: transient local,
+#: 10 to 1000 Hz): the daemon lets go of it (its CPU is the cell's) and echoes it as any topic
+STREAM_HZ = 5.0
+STREAM_WINDOW_S = 2.0
 NODE_NAME = "_hexctl_daemon"  # hidden: a leading underscore (node list leaves it out)
 _ENVIRONMENT = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_PEERS", "RMW_IMPLEMENTATION",
                 "ROS_LOCALHOST_ONLY")
@@ -240,33 +245,69 @@ def daemon_verb(verb: str) -> int:
 
 
 class _Latched:
-    """A latched topic the daemon holds: its type, the messages stored (CDR), and the queues
-    of the echoes listening (an echo's thread joins and leaves under the lock: no turn of the
-    spinning thread to wait for)."""
+    """A latched topic the daemon holds: its type, the messages stored (CDR) and the queues of
+    the echoes listening (an echo's thread joins and leaves under the lock: no turn of the
+    spinning thread to wait for).
+
+    A late subscriber gets each publisher's history, up to that one's depth, which the graph
+    does not tell (UNKNOWN): each publisher keeps here as many messages as it had written
+    before the subscription was made (its history then, by their source time stamps; at
+    least 1, at most LATCHED_DEPTH), so that an echo --once of a depth-1 topic republished
+    since prints the newest message, not the first one held. A publisher that came later
+    keeps 1."""
 
     def __init__(self, type_name: str):
         self.type_name = type_name
-        self.messages: deque = deque(maxlen=LATCHED_DEPTH)
+        self.created_ns = time.time_ns()  # before the subscription: a message written earlier is history
+        self.stores: dict[str, deque] = {}  # publisher gid -> deque of (arrival number, CDR)
+        self.arrivals = 0
+        self.live = 0  # messages written after the subscription was made, since the last look
         self.listeners: list[queue.Queue] = []
         self.subscription = None
+        self.dropped = False
         self.lock = threading.Lock()
 
-    def on_message(self, data: bytes) -> None:
+    def on_message(self, data: bytes, info) -> None:
+        info = info or {}
+        publisher = repr(info.get("publisher_gid"))
         with self.lock:
-            self.messages.append(data)
+            store = self.stores.setdefault(publisher, deque(maxlen=LATCHED_DEPTH))
+            if (info.get("source_timestamp") or 0) >= self.created_ns:  # live, its history has come
+                self.live += 1
+                if store.maxlen == LATCHED_DEPTH and len(store) < LATCHED_DEPTH:
+                    store = self.stores[publisher] = deque(store, maxlen=max(len(store), 1))
+            self.arrivals += 1
+            store.append((self.arrivals, data))
             for listener in self.listeners:
                 listener.put(data)
 
-    def listen(self, frames: queue.Queue) -> None:
-        """``frames`` gets the messages stored, then each new one."""
+    def listen(self, frames: queue.Queue) -> bool:
+        """``frames`` gets the messages stored, then each new one; False if no longer held."""
         with self.lock:
+            if self.dropped:
+                return False
             self.listeners.append(frames)
-            for data in self.messages:
+            for _number, data in sorted(m for store in self.stores.values() for m in store):
                 frames.put(data)
+            return True
 
     def leave(self, frames: queue.Queue) -> None:
         with self.lock:
             self.listeners.remove(frames)
+
+    def clear(self) -> None:
+        with self.lock:
+            self.stores.clear()
+
+    def drop_if_stream(self, window_s: float) -> bool:
+        """Whether the topic is a stream (more than STREAM_HZ live messages a second over
+        ``window_s``) that no echo listens to: then marked dropped (an echo's thread no longer
+        joins). Resets the count."""
+        with self.lock:
+            stream = self.live > STREAM_HZ * window_s and not self.listeners
+            self.live = 0
+            self.dropped = stream
+            return stream
 
 
 def _latched_type(publishers) -> str | None:
@@ -299,6 +340,7 @@ class _Daemon:
         self.echoes = 0
         self.stopping = False
         self.latched: dict[str, _Latched] = {}
+        self.streams: set[str] = set()  # latched topics let go of: streams (STREAM_HZ)
         self.wake = self.node.create_guard_condition(lambda: None)
         self.hold_latched()
 
@@ -329,7 +371,7 @@ class _Daemon:
         """Subscribe to every latched topic of the graph not held yet (before anyone asks:
         the publishers learn of the subscription now, not while an echo waits)."""
         for topic, _types in self.graph[1]:
-            if topic not in self.latched and topic not in NOT_HELD:
+            if topic not in self.latched and topic not in NOT_HELD and topic not in self.streams:
                 publishers = self.node.get_publishers_info_by_topic(topic)
                 if publishers:
                     self.hold(topic, publishers)
@@ -337,9 +379,18 @@ class _Daemon:
     def forget_gone_publishers(self) -> None:
         """A held topic whose publishers are gone: their messages go with them."""
         for topic, held in self.latched.items():
-            if held.messages and not self.node.get_publishers_info_by_topic(topic):
-                with held.lock:
-                    held.messages.clear()
+            if held.stores and not self.node.get_publishers_info_by_topic(topic):
+                held.clear()
+        # a stream's topic gone from the graph: when it comes back, it may be a latched one
+        self.streams &= {topic for topic, _types in self.graph[1]}
+
+    def drop_streams(self) -> None:
+        """Let go of the held topics that turned out streams (:meth:`_Latched.drop_if_stream`)."""
+        for topic, held in list(self.latched.items()):
+            if held.drop_if_stream(STREAM_WINDOW_S):
+                self.node.destroy_subscription(held.subscription)
+                del self.latched[topic]
+                self.streams.add(topic)
 
     def on_spin_thread(self, function):
         answer: queue.Queue = queue.Queue()
@@ -351,7 +402,7 @@ class _Daemon:
         return value
 
     def run(self) -> None:
-        last_look = 0.0
+        last_look = last_streams = 0.0
         while not self.stopping and self.rclpy.ok():
             self.rclpy.spin_once(self.node, timeout_sec=0.02 if self.echoes else 0.05)
             while not self.jobs.empty():
@@ -376,6 +427,9 @@ class _Daemon:
                     self.graph, self.changed = graph, now
                     self.forget_gone_publishers()
                     self.hold_latched()
+                if now - last_streams >= STREAM_WINDOW_S:
+                    last_streams = now
+                    self.drop_streams()
                 if not self.echoes and now - self.last_request > IDLE_S:
                     self.stopping = True
 
@@ -443,9 +497,9 @@ class _Daemon:
             if not publishers:
                 return None
             cls = message_type(publishers)
-            held = None if own_qos or topic in NOT_HELD else self.hold(topic, publishers)
+            held = None if own_qos or topic in NOT_HELD or topic in self.streams else self.hold(topic, publishers)
             if held is not None:
-                held.listen(frames)
+                held.listen(frames)  # on this thread: not dropped meanwhile
             return publishers, cls, held
 
         # a latched topic held already (the usual case): from this thread (rclpy's graph
@@ -454,8 +508,11 @@ class _Daemon:
         publishers = self.node.get_publishers_info_by_topic(topic) if held is not None else []
         if held is not None and _latched_type(publishers) == held.type_name:
             cls = message_type(publishers)
-            held.listen(frames)
+            if not held.listen(frames):
+                held = None  # let go of just now: a stream
         else:
+            held = None
+        if held is None:
             while (found := self.on_spin_thread(find)) is None:
                 if time.monotonic() >= end:
                     raise VerbError(f"no publisher of {topic} within {timeout_s:g} s "
@@ -497,7 +554,8 @@ def serve() -> int:
                 if message.get("op") == "graph":
                     answer = daemon.graph_answer()
                 elif message.get("op") == "held":  # the latched topics held, with their messages counted
-                    answer = {"topics": {topic: len(held.messages) for topic, held in list(daemon.latched.items())}}
+                    answer = {"topics": {topic: sum(len(store) for store in list(held.stores.values()))
+                                          for topic, held in list(daemon.latched.items())}}
                 elif message.get("op") == "status":
                     answer = {"pid": os.getpid(), "age_s": time.monotonic() - daemon.started}
                 elif message.get("op") == "stop":
