@@ -234,6 +234,7 @@ def test_the_first_feedback_says_whether_the_deadline_can_be_met(tmp_path):
     long = Cell(tmp_path / "long", bead)
     long.start(deadline_s=90.0)
     assert long.feedback[0]["deadline_reachable"] and abs(long.feedback[0]["expected_final_material_mm"]) < 0.05
+    assert "median" in long.feedback[0]["note"] and "of the jobs overground" in long.feedback[0]["note"]
 
 
 def test_max_removal_is_the_best_sequence_of_passes():

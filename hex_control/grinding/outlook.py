@@ -8,7 +8,8 @@
   cannot be met by any sequence of passes, whatever the draws.
 - **The expected end state** is the mean final X of ``rollouts`` seeded jobs of the policy
   on its own stochastic model (``rollout.run_job``, the seed fixed: the same state gives
-  the same words), with the expected charge beside it.
+  the same words), with the expected charge beside it, its median and the share of jobs
+  that overgrind (the charge is skewed: a few jobs mostly see about the median).
 
 Units: mm, s.
 """
@@ -33,6 +34,8 @@ class Outlook:
     expected_charge: float  # mean charge of the rollouts
     within_band: float  # fraction of the rollouts ending within the band
     note: str
+    median_charge: float = float("nan")  # the charge is skewed: a few jobs mostly see about this
+    overgrind: float = float("nan")  # fraction of the rollouts ending below the parent (X < 0)
 
 
 def max_removal_mm(process: GrindingProcess, grid: PlannerGrid, cut_model: CutDepthModel, time_left_s: float) -> float:
@@ -60,13 +63,15 @@ def outlook(policy: Policy, process: GrindingProcess, charges: Charges, cut_mode
     jobs = [run_job(policy, process, charges, cut_model, time_remaining_s, material_mm=material_mm, rng=rng)
             for _ in range(int(rollouts))]
     final = np.array([job.material_mm for job in jobs])
-    charge = float(np.mean([job.total_charge for job in jobs]))
-    within = float(np.mean((final >= 0) & (final <= tolerance)))
+    charges_each = np.array([job.total_charge for job in jobs])
+    charge, median = float(charges_each.mean()), float(np.median(charges_each))
+    within, below = float(np.mean((final >= 0) & (final <= tolerance))), float(np.mean(final < 0))
+    spread = f" (median {median:.4f}; {below:.1%} of the jobs overground)"
     if reachable:
         note = (f"expected end X = {final.mean():+.4f} mm (within the band in {within:.0%} of {len(jobs)} jobs on "
-                f"the planner's model), expected charge {charge:.4f}")
+                f"the planner's model), expected charge {charge:.4f}{spread}")
     else:
         note = (f"deadline out of reach: {time_remaining_s:.1f} s of passes remove at most {most:.3f} mm of the "
                 f"{material_mm:.3f} mm (force the plans reach {process.force_max_n:.1f} N); expected end X = "
-                f"{final.mean():+.4f} mm, expected charge {charge:.4f}")
-    return Outlook(bool(reachable), most, float(final.mean()), charge, within, note)
+                f"{final.mean():+.4f} mm, expected charge {charge:.4f}{spread}")
+    return Outlook(bool(reachable), most, float(final.mean()), charge, within, note, median, below)
