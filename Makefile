@@ -53,7 +53,7 @@ demo: setup
 # one OpenBLAS thread (unless set): beside a busy graph or a loaded machine its worker threads
 # spin for cores others hold (a shaping test took 507 s under two CPU burners, 23 s with one)
 test: setup
-	OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest -q -n 2 --dist loadgroup --durations=20 test
+	OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest -q -n 2 --dist worksteal --durations=20 test
 
 lint: setup
 	$(VENV)/bin/ruff check hex_control test scripts

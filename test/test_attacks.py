@@ -219,8 +219,8 @@ class RefusedAttacks:
 @pytest.fixture(scope="module")
 def refused(ros_env, tmp_path_factory):
     """The shared job, run to its end and its graph stopped (the next test's graph takes the
-    same names in the same domain). One worker runs all its tests (``make test``'s
-    ``--dist loadgroup``; the group below)."""
+    same names in the same domain). Under ``make test`` one worker runs all its tests:
+    conftest.py collects this module first (SLOW_FIRST)."""
     attack_ = Attack(tmp_path_factory.mktemp("refused_attacks"))
     try:
         shared = RefusedAttacks(attack_)
@@ -229,9 +229,6 @@ def refused(ros_env, tmp_path_factory):
         attack_.close()
     return shared
 
-
-#: the tests of the shared job: on one xdist worker, so that the job runs once
-SHARED_JOB = pytest.mark.xdist_group("refused_attacks")
 
 
 def _goal_for_another_bead(a: Attack) -> str:
@@ -316,7 +313,6 @@ def _wrench_ahead(a: Attack, publisher) -> None:
     publisher.publish(wrench)
 
 
-@SHARED_JOB
 def test_a_forged_pass_command_cannot_gouge_the_part(refused):
     """One forged PassCommand (right job id, 2 mm, 5 mm/s) published latched when contour 1
     appears: the pass planner obeys only the sequence planner, and checks any command
@@ -325,7 +321,6 @@ def test_a_forged_pass_command_cannot_gouge_the_part(refused):
     assert_the_job_kept_its_word(refused.record, refused["outcome"])
 
 
-@SHARED_JOB
 def test_a_latched_force_trajectory_from_another_process_is_not_tracked(refused):
     """60 N for 200 s, latched, from another process in pass 0: the plant refused it, the
     force controller adopted it and gouged the part 0.77 mm (issue 37)."""
@@ -333,7 +328,6 @@ def test_a_latched_force_trajectory_from_another_process_is_not_tracked(refused)
     assert_the_job_kept_its_word(refused.record, refused["outcome"])
 
 
-@SHARED_JOB
 def test_a_direct_setpoint_of_zero_does_not_drop_the_pass(refused):
     """One Float64 0.0 on /force_controller/setpoint mid-pass dropped the trajectory: pass 1
     cut 0.048 of 0.308 mm and was reported COMPLETED (issue 37). Sent while pass 1 grinds,
@@ -342,7 +336,6 @@ def test_a_direct_setpoint_of_zero_does_not_drop_the_pass(refused):
     assert_the_job_kept_its_word(refused.record, refused["outcome"])
 
 
-@SHARED_JOB
 def test_a_wrench_stamped_ahead_is_not_a_clock_jump(refused):
     """One wrench stamped +0.3 s (inside the 1 s window) dropped the pass's trajectory."""
     refused["wrench ahead"]
@@ -350,7 +343,6 @@ def test_a_wrench_stamped_ahead_is_not_a_clock_jump(refused):
     assert "clock jumped" not in refused.force_controller_log
 
 
-@SHARED_JOB
 def test_a_forged_pass_result_does_not_end_the_job(refused):
     """One forged PassResult ended the job DONE at X = 0 with the part 0.50 mm high."""
     assert "/rogue" in refused["forged result"]
@@ -403,7 +395,6 @@ def _set_parameter(a: Attack, node: str, name: str, value: float):
     return future.result().results[0]
 
 
-@SHARED_JOB
 def test_max_force_cannot_be_raised_live_beyond_the_cell(refused):
     """max_force_n raised live to 10,000 N: the plant tripped at 152 N and stayed at 0 N."""
     answer = refused["max force"]
@@ -411,7 +402,6 @@ def test_max_force_cannot_be_raised_live_beyond_the_cell(refused):
     assert_the_job_kept_its_word(refused.record, refused["outcome"])
 
 
-@SHARED_JOB
 def test_a_huge_ik_request_blocks_neither_the_job_nor_the_other_services(refused):
     """One 100,000-pose IK request blocked FK, TestPose and the relay for 17 s and made pass
     1 REJECTED (issue 37): it is refused at once, a request at the cap (one that costs under
@@ -437,7 +427,6 @@ def test_a_plant_restarted_mid_pass_is_never_reported_completed(attack):
     assert a.record.results[1]["status"] in ("faulted", "aborted"), a.record.results[1]
 
 
-@SHARED_JOB
 def test_a_goal_for_another_bead_is_rejected_at_goal_response(refused):
     """The README's goal (60 mm) on a cell whose plant holds a 300 mm bead ran 9 s late with
     0.35 mm left; here the plant holds 60 mm and the goal says 300 mm (refused before the
