@@ -7,13 +7,14 @@ later (measured here, at any load, whatever the initial announcements), so a lis
 missed topics and an echo took up to 3 s.
 
 Latched topics (every publisher transient local) the daemon subscribes to as soon as its
-graph shows them, before anyone asks, and holds their messages: an echo gets them at once.
+graph shows them, before anyone asks, and holds their messages (:class:`_Latched`; not a
+stream's, STREAM_HZ): an echo gets them at once.
 Subscribing only at the first echo, that echo waited for the publisher to learn of the new
 subscription: 0.3 s idle, up to 3.1 s beside two CPU burners.
 
 The client side (the verbs, :func:`list_verb`, :func:`echo_verb`) imports nothing but the
-standard library: a verb answered by the daemon starts without rclpy, numpy or yaml (their
-import, 0.3 s of CPU, took up to 2 s beside two CPU burners).
+standard library: a verb answered by the daemon starts without rclpy or yaml (their
+import with the verb's module, 0.2 s of CPU, took up to 2 s beside two CPU burners).
 
 The first verb that finds no daemon starts one and works without it this time; the daemon
 ends after IDLE_S without a request. One daemon per user, discovery setting (domain id,
