@@ -1,6 +1,8 @@
 """`hexctl shaper design|plot`."""
 
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -53,3 +55,15 @@ def test_sigterm_inside_a_native_callback_still_exits_with_its_code(monkeypatch)
         assert main(["shaper", "design", "--type", "zvd"]) == 128 + signal.SIGTERM
     finally:
         signal.signal(signal.SIGTERM, previous)
+
+
+def test_the_cli_names_every_shaper_without_importing_them():
+    """hexctl starts without numpy (issue 40: an echo under two CPU burners within 2 s): the
+    shaper verbs' choices are names kept beside the shapers, and must be theirs."""
+    from hex_control.cli.shaping import SHAPER_NAMES
+    from hex_control.shaping.shapers import SHAPERS
+
+    assert SHAPER_NAMES == tuple(SHAPERS)
+    run = subprocess.run([sys.executable, "-c", "import sys; from hex_control import cli; cli._parser(); "
+                          "print('numpy' in sys.modules)"], capture_output=True, text=True, timeout=60)
+    assert run.stdout.strip() == "False", run.stdout + run.stderr
