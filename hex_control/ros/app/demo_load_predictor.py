@@ -40,6 +40,7 @@ SOURCE_NODE = "/synthetic_load"  # the publisher of INPUT_TOPIC, SyntheticLoadNo
 #: (the predictor's qos_depth 100, the recorder's 100), so a stalled process delays the demo
 #: but no KEEP_LAST queue overflows and every sample is predicted
 MAX_UNANSWERED = 20
+FIRST_RESEND_S = 1.0  # wall s: the first sample, unanswered, is sent again (the start handshake)
 
 
 def predictor_command() -> list[str]:
@@ -74,15 +75,21 @@ def run_demo(output: str, samples: int, rate_hz: float, seed: int) -> int:
                       "process_variance": TRUE_MODEL.process_variance,
                       "measurement_variance": TRUE_MODEL.measurement_variance, "mean": MEAN_FORCE_N,
                       "rate_hz": rate_hz, "seed": seed, "count": samples, "qos_depth": 100}
+        # the series waits for the first sample's answer: a predictor whose reader matched the
+        # source's writer only after it was sent has dropped it (volatile DDS), so it is sent
+        # again, stamp and all, every FIRST_RESEND_S (the predictor counts a repeat, not a sample)
         source = SyntheticLoadNode(
-            may_publish=lambda sent: sent - len(received) < MAX_UNANSWERED,
+            may_publish=lambda sent: sent - len(received) < (MAX_UNANSWERED if received else 1),
             parameter_overrides=[Parameter(name, value=value) for name, value in parameters.items()])
         executor.add_node(source)
         # progress, not wall time, ends the wait: a predictor that stays silent for 30 s has failed
-        silent_since = time.monotonic()
+        silent_since = resent_at = time.monotonic()
         with tqdm(total=samples, desc="predictions", unit="sample") as bar:
             while len(received) < samples and time.monotonic() - silent_since < 30.0:
                 executor.spin_once(timeout_sec=0.1)
+                if not received and time.monotonic() - resent_at > FIRST_RESEND_S:
+                    source.republish_last()
+                    resent_at = time.monotonic()
                 if len(received) > bar.n:
                     silent_since = time.monotonic()
                     bar.update(len(received) - bar.n)

@@ -5,7 +5,9 @@ Stands in for a load measurement when there is no plant: y(t) = L_bar + dL(t) + 
 history of ``qos_depth`` samples.
 Seeded, so a run is reproducible; stops after ``count`` samples if ``count`` > 0. In a
 process that also listens to the answers, ``may_publish(sent)`` can hold the next sample back
-(flow control), so that no history overflows when the consumer falls behind.
+(flow control), so that no history overflows when the consumer falls behind, and
+``republish_last()`` sends the last sample again, stamp and all (a start handshake: a reader
+that matches the writer late drops what came before).
 """
 
 from __future__ import annotations
@@ -50,6 +52,7 @@ class SyntheticLoadNode(Node):
         self.measurements = p("mean") + measurements
         self._count = p("count")
         self._sent = 0
+        self._last = None  # the last message sent
         self._class = _TYPES[p("type")]
         self._publisher = self.create_publisher(self._class, p("topic"), p("qos_depth"))
         self._timer = self.create_timer(1.0 / p("rate_hz"), self._publish)
@@ -71,7 +74,12 @@ class SyntheticLoadNode(Node):
             msg.header.frame_id = "tool"
             msg.wrench.force.z = value
         self._publisher.publish(msg)
+        self._last = msg
         self._sent += 1
+
+    def republish_last(self) -> None:
+        if self._last is not None:
+            self._publisher.publish(self._last)
 
 
 def main(args=None) -> int:
