@@ -90,6 +90,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cells", nargs="+", default=["1.0/60"], help="bead height mm / deadline s")
     parser.add_argument("--thesis-model", action="store_true", help="solve with the configured cut model")
     parser.add_argument("--estimate-cv", type=float, default=K1_ESTIMATE_CV)
+    parser.add_argument("--replay-seeds", type=int, nargs="*", default=[],
+                        help="also each job of these campaign seeds, from the K1 the plant draws for them")
     args = parser.parse_args(argv)
     if not 1 <= args.jobs <= 100_000:
         print("--jobs must be in [1, 100000]", file=sys.stderr)
@@ -116,7 +118,26 @@ def main(argv=None) -> int:
         print(f"| {height:g} | {deadline:g} | {j:.4f} | {charge.mean():.4f} +- {error:.4f} ({len(charge)}) | "
               f"{charge.mean() / j:.2f} | {np.where(final < 0, charge, 0).mean():.4f} | {np.mean(final < 0):.1%} | "
               f"{np.median(charge):.4f} | {seeds:.4f}, {seeds / j:.2f} |", flush=True)
+    for cell in args.cells if args.replay_seeds else []:
+        height, deadline = (float(v) for v in cell.split("/"))
+        bead = weld_bead(150.0, height, 12.0, ripple_mm=0.05, seed=0)
+        profile = Profile(bead.x_mm, bead.z_mm, bead.parent_mm)
+        feeds = build_controls(JOB, GRID.covering(deadline, profile.mean_mm), MODEL).feeds_mm_s
+        prior = prior_force_limit_n(profile, JOB, feeds, PartRule())
+        charges = [job(seed, deadline, profile.mean_mm, prior, model=model, factor=factor, k1s=plant_k1(seed))[0]
+                   for seed in args.replay_seeds]
+        print(f"replay {height:g} mm / {deadline:g} s, seeds {args.replay_seeds}: "
+              + " ".join(f"{c:.4f}" for c in charges) + f", mean {np.mean(charges):.4f}", flush=True)
     return 0
+
+
+def plant_k1(seed: int, passes: int = 20) -> list[float]:
+    """The K1 (J/mm^3) the plant draws for the passes of the campaign job of ``seed``
+    (``ProcessVariation.draw``: its generator seeded with the job's seed, friction fixed)."""
+    from hex_control.grinding.variation import _unit_lognormal
+
+    rng = np.random.default_rng(seed)
+    return [JOB.specific_energy_j_mm3 * _unit_lognormal(rng, 0.15) for _ in range(passes)]
 
 
 if __name__ == "__main__":
