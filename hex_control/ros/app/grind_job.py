@@ -464,19 +464,24 @@ def run_job(output: Path, deadline_s: float = 60.0, seed: int = 0, mode: str = "
 
 
 def start_policy(record: JobRecord):
-    """The policy the sequence planner solved for this goal at the start (same config)."""
+    """The policy the sequence planner solved for this goal at the start (same config, and
+    its cut model of a pass planned on the estimated K1; not its force limit from the scan)."""
     import dataclasses
 
     from hex_control.grinding.config import load_planner_config
     from hex_control.grinding.sdp import solve
+    from hex_control.grinding.sequencer import SequencerSettings
+    from hex_control.grinding.stochastic import planned_on_estimate
 
     process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
     changes = {"bead_width_mm": record.goal["bead_width_mm"], "bead_length_mm": record.goal["bead_length_mm"]}
     if record.goal.get("reset_time_s") is not None:
         changes["reset_time_s"] = record.goal["reset_time_s"]
-    process = dataclasses.replace(process, **changes)
+    estimate_cv = SequencerSettings(Path()).k1_estimate_cv
+    model, factor = (cut_model, 1.0) if estimate_cv is None else planned_on_estimate(cut_model, estimate_cv)
+    process = dataclasses.replace(process, **changes, specific_energy_j_mm3=process.specific_energy_j_mm3 / factor)
     grid = grid.covering(record.goal["deadline_s"], record.goal["material_mm"])
-    return solve(process, charges, grid, cut_model), charges
+    return solve(process, charges, grid, model), charges
 
 
 def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
