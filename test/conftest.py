@@ -65,9 +65,7 @@ def spawn(ros_env, tmp_path, request):
 
 
 #: the modules whose tests run whole graphs or builds (tens of seconds each), collected first: the
-#: two workers end together on the short tests (longest first), and test_attacks.py's shared job
-#: (its module fixture ``refused``) heads the first worker's queue, whose tail alone the other
-#: worker steals (--dist worksteal), so that one worker runs all its tests and the job once
+#: two workers end together on the short tests (longest first)
 SLOW_FIRST = ("test_attacks.py", "test_end_to_end.py", "test_colcon_build.py", "test_campaign.py", "test_ros_cli.py",
               "test_bench.py", "test_hostile_inputs.py", "test_determinism.py", "test_demo.py")
 

@@ -9,9 +9,7 @@ For every attack the job must keep its word (issue 37, acceptance):
   DONE only with the part inside the tolerance band;
 - the node that refused says why in its diagnostics.
 
-The job is issue 37's: a 60 mm bead, seed 5, a 30 s deadline. The attacks the graph refuses
-at its door share one such job, each at the moment its test names (``refused``); those that
-change the job (a node killed, a cancel, a jog before the controller) run one job each.
+The job is issue 37's: a 60 mm bead, seed 5, a 30 s deadline.
 """
 
 from __future__ import annotations
@@ -161,193 +159,78 @@ def in_pass(attack_: Attack, k: int, force_n: float = 10.0):
                        f"pass {k} to grind")
 
 
-class RefusedAttacks:
-    """Issue 37's job once, under every attack the graph refuses at its door, each in its turn
-    at the moment its own test names (the suite stays fast: one job for eight attacks, not
-    eight). A refused attack leaves the job as it was, so each test asserts its refusal and
-    that the job kept its word. Each attack is a step: one that fails (or times out) is
-    re-raised in its own test, and the job goes on to the next."""
-
-    def __init__(self, attack_: Attack):
-        self.attack, self.record = attack_, attack_.record
-        self.steps: dict[str, tuple[object, BaseException | None]] = {}
-
-    def step(self, name: str, action):
-        try:
-            self.steps[name] = (action(), None)
-        except (AssertionError, TimeoutError) as exc:
-            self.steps[name] = (None, exc)
-
-    def __getitem__(self, name: str):
-        value, exc = self.steps[name]
-        if exc is not None:
-            raise exc
-        return value
-
-    def run(self) -> None:
-        a = self.attack
-        self.step("wrong bead", lambda: _goal_for_another_bead(a))
-        # the rogue's publishers matched and its service clients found before the job, so each
-        # attack lands in the pass it aims at; the two of a pass are sent together
-        publishers, ik = {}, {}
-        self.step("set-up", lambda: (publishers.update(
-            trajectory=a.publisher(ForceTrajectory, "grinding/force_trajectory", LATCHED,
-                                   to=("force_controller", "plant")),
-            result=a.publisher(PassResult, "grinding/pass_result", RESULTS, to=("sequence_planner", "pass")),
-            command=a.publisher(PassCommand, "grinding/pass_command", LATCHED, to=("pass_planner",)),
-            setpoint=a.publisher(Float64, "force_controller/setpoint", to=("force_controller",)),
-            wrench=a.publisher(WrenchStamped, "plant/wrench", to=("force_controller",))), ik.update(_ik_clients(a))))
-        self["set-up"]  # without it no attack lands: every test fails on this
-        job_id = start_job(a)
-        self.step("max force", lambda: _set_parameter(a, "/force_controller", "max_force_n", 10_000.0))
-        self.step("pass 0", lambda: in_pass(a, 0))
-        self.step("pass 0's forgeries", lambda: (_forge_trajectory(a, publishers["trajectory"], job_id),
-                                                 _forge_result(a, publishers["result"], job_id)))
-        self.step("forged trajectory", lambda: a.wait_for_refusal("/force_controller", "foreign_trajectory", "refused"))
-        self.step("forged result", lambda: a.wait_for_refusal("/sequence_planner", "foreign_result", "refused"))
-        self.step("forged command", lambda: _forge_command(a, publishers["command"], job_id))
-        self.step("pass 1", lambda: in_pass(a, 1))
-        self.step("pass 1's forgeries", lambda: (_zero_setpoint(publishers["setpoint"]),
-                                                 _wrench_ahead(a, publishers["wrench"])))
-        self.step("zero setpoint", lambda: a.wait_for_refusal("/force_controller", "refused_setpoint", "setpoint"))
-        self.step("wrench ahead", lambda: a.wait_for_refusal("/force_controller", "foreign_measurement", "refused"))
-        self.step("huge ik", lambda: _huge_ik_request(a, **ik))  # after pass 1's grinding: the job goes on
-        self.step("outcome", lambda: run_to_end(a))
-        self.force_controller_log = a.session.graph.log_tail("force_controller", 400)
+def test_a_forged_pass_command_cannot_gouge_the_part(attack):
+    """One forged PassCommand (right job id, 2 mm, 5 mm/s) published latched when contour 1
+    appears: the pass planner obeys only the sequence planner, and checks any command
+    against the scanned material and the parent."""
+    a = attack()
+    job_id = start_job(a)
+    a.spin_until(lambda: 1 in a.record.contours, "contour 1")
+    forged = PassCommand(job_id=job_id, pass_index=1, cut_depth_mm=2.0, normal_force_n=60.0, feed_speed_mm_s=5.0,
+                         pass_duration_s=16.7, material_remaining_mm=2.0, time_remaining_s=20.0)
+    a.publisher(PassCommand, "grinding/pass_command", LATCHED, to=("pass_planner",)).publish(forged)
+    said = a.wait_for_refusal("/pass_planner", "foreign_pass_command", "refused")
+    assert "/rogue" in said
+    assert_the_job_kept_its_word(a.record, run_to_end(a))
 
 
-@pytest.fixture(scope="module")
-def refused(ros_env, tmp_path_factory):
-    """The shared job, run to its end and its graph stopped (the next test's graph takes the
-    same names in the same domain). Under ``make test`` one worker runs all its tests:
-    conftest.py collects this module first (SLOW_FIRST)."""
-    attack_ = Attack(tmp_path_factory.mktemp("refused_attacks"))
-    try:
-        shared = RefusedAttacks(attack_)
-        shared.run()
-    finally:
-        attack_.close()
-    return shared
-
-
-
-def _goal_for_another_bead(a: Attack) -> str:
-    """The README's goal (60 mm) on a cell whose plant holds a 300 mm bead, the other way
-    round: sent before the job; the sequence planner's refusal."""
-    a.session.wait_until_ready()
-    a.spin_until(lambda: (status := a.status("/sequence_planner")) is not None and any(
-        v.key == "scanned_bead" for v in status.values), "the sequence planner to hold the plant's scan", 60.0)
-    client = ActionClient(a.rogue, GrindBead, "sequence_planner/grind_bead")
-    try:
-        goal = GrindBead.Goal(job_id="wrong-bead", bead_height_mm=0.8, bead_width_mm=12.5, bead_length_mm=300.0,
-                              deadline_s=30.0)
-        sent = client.send_goal_async(goal)
-        a.spin_until(sent.done, "the goal's response", 60.0)
-        assert not sent.result().accepted
-        return a.wait_for_refusal("/sequence_planner", "rejected_goals", "300")
-    finally:
-        client.destroy()
-
-
-def _forge_trajectory(a: Attack, publisher, job_id: str) -> None:
+def test_a_latched_force_trajectory_from_another_process_is_not_tracked(attack):
+    """60 N for 200 s, latched, from another process: the plant refused it, the force
+    controller adopted it and gouged the part 0.77 mm (issue 37)."""
+    a = attack()
+    job_id = start_job(a)
+    in_pass(a, 0)
     t = np.linspace(0.0, 200.0, 401)
     forged = ForceTrajectory(job_id=job_id, pass_index=1, feed_speed_mm_s=5.0, planned_cut_depth_mm=2.0,
                              path_start_s=-1.0, path_end_s=202.0, time_from_start_s=t.tolist(),
                              x_mm=np.linspace(0, 60, t.size).tolist(), normal_force_n=[60.0] * t.size)
     forged.header.stamp.sec = int(a.record.force[-1][0]) + 1
-    publisher.publish(forged)
+    a.publisher(ForceTrajectory, "grinding/force_trajectory", LATCHED, to=("force_controller", "plant")).publish(forged)
+    said = a.wait_for_refusal("/force_controller", "foreign_trajectory", "refused")
+    assert "/rogue" in said
+    assert_the_job_kept_its_word(a.record, run_to_end(a))
 
 
-def _forge_result(a: Attack, publisher, job_id: str) -> None:
-    forged = PassResult(job_id=job_id, pass_index=0, status=PassResult.COMPLETED, measured_cut_depth_mm=0.8,
-                        removed_volume_mm3=600.0, duration_s=8.0, feed_speed_mm_s=20.0,
-                        specific_energy_j_mm3=10.0, cut_depth_coefficient=0.001)
-    forged.header.stamp.sec = int(a.record.force[-1][0]) + 1
-    publisher.publish(forged)
+def test_a_direct_setpoint_of_zero_does_not_drop_the_pass(attack):
+    """One Float64 0.0 on /force_controller/setpoint mid-pass dropped the trajectory: pass 1
+    cut 0.048 of 0.308 mm and was reported COMPLETED (issue 37)."""
+    a = attack()
+    start_job(a)
+    in_pass(a, 1)
+    a.publisher(Float64, "force_controller/setpoint", to=("force_controller",)).publish(Float64(data=0.0))
+    a.wait_for_refusal("/force_controller", "refused_setpoint", "setpoint")
+    assert_the_job_kept_its_word(a.record, run_to_end(a))
 
 
-def _forge_command(a: Attack, publisher, job_id: str) -> str:
-    a.spin_until(lambda: 1 in a.record.contours, "contour 1")
-    publisher.publish(PassCommand(job_id=job_id, pass_index=1, cut_depth_mm=2.0, normal_force_n=60.0,
-                                  feed_speed_mm_s=5.0, pass_duration_s=16.7, material_remaining_mm=2.0,
-                                  time_remaining_s=20.0))
-    return a.wait_for_refusal("/pass_planner", "foreign_pass_command", "refused")
-
-
-def _ik_clients(a: Attack) -> dict:
-    """The kinematics services' clients, found, and the requests (built ahead: 100,000 poses
-    take seconds to build in Python)."""
-    from hex_control.kinematics.service import MAX_POSES
-
-    inverse = a.rogue.create_client(InverseKinematics, "kinematics/inverse_kinematics")
-    forward = a.rogue.create_client(ForwardKinematics, "kinematics/forward_kinematics")
-    assert inverse.wait_for_service(timeout_sec=30.0) and forward.wait_for_service(timeout_sec=30.0)
-    pose = ToolPose(z_mm=-2100.0)
-    return {"inverse": inverse, "forward": forward, "huge": InverseKinematics.Request(poses=[pose] * 100_000),
-            "heavy": InverseKinematics.Request(poses=[pose] * MAX_POSES)}
-
-
-def _huge_ik_request(a: Attack, *, inverse, forward, huge, heavy) -> tuple[int, float]:
-    """100,000 poses (the refusal's error code), then a request at the cap and, while it
-    runs, a forward request (the wall seconds its answer took)."""
-    refused_ = inverse.call_async(huge)
-    a.spin_until(refused_.done, "the refusal of 100,000 poses", 30.0)
-    at_cap = inverse.call_async(heavy)
-    asked = time.monotonic()
-    light = forward.call_async(ForwardKinematics.Request(strut_lengths_mm=[]))
-    a.spin_until(light.done, "forward kinematics during the heavy request", 30.0)
-    light_s = time.monotonic() - asked
-    a.spin_until(at_cap.done, "the request at the cap", 60.0)
-    return refused_.result().error_code.val, light_s
-
-
-def _zero_setpoint(publisher) -> None:
-    publisher.publish(Float64(data=0.0))
-
-
-def _wrench_ahead(a: Attack, publisher) -> None:
+def test_a_wrench_stamped_ahead_is_not_a_clock_jump(attack):
+    """One wrench stamped +0.3 s (inside the 1 s window) dropped the pass's trajectory."""
+    a = attack()
+    start_job(a)
+    in_pass(a, 1)
     wrench = WrenchStamped()
     now_s = a.record.force[-1][0] + 0.3
     wrench.header.stamp.sec, wrench.header.stamp.nanosec = int(now_s), int((now_s % 1) * 1e9)
     wrench.wrench.force.z = 30.0
-    publisher.publish(wrench)
+    a.publisher(WrenchStamped, "plant/wrench", to=("force_controller",)).publish(wrench)
+    a.wait_for_refusal("/force_controller", "foreign_measurement", "refused")
+    assert_the_job_kept_its_word(a.record, run_to_end(a))
+    assert "clock jumped" not in a.session.graph.log_tail("force_controller", 400)
 
 
-def test_a_forged_pass_command_cannot_gouge_the_part(refused):
-    """One forged PassCommand (right job id, 2 mm, 5 mm/s) published latched when contour 1
-    appears: the pass planner obeys only the sequence planner, and checks any command
-    against the scanned material and the parent."""
-    assert "/rogue" in refused["forged command"]
-    assert_the_job_kept_its_word(refused.record, refused["outcome"])
-
-
-def test_a_latched_force_trajectory_from_another_process_is_not_tracked(refused):
-    """60 N for 200 s, latched, from another process in pass 0: the plant refused it, the
-    force controller adopted it and gouged the part 0.77 mm (issue 37)."""
-    assert "/rogue" in refused["forged trajectory"]
-    assert_the_job_kept_its_word(refused.record, refused["outcome"])
-
-
-def test_a_direct_setpoint_of_zero_does_not_drop_the_pass(refused):
-    """One Float64 0.0 on /force_controller/setpoint mid-pass dropped the trajectory: pass 1
-    cut 0.048 of 0.308 mm and was reported COMPLETED (issue 37). Sent while pass 1 grinds,
-    with the wrench below."""
-    refused["zero setpoint"]
-    assert_the_job_kept_its_word(refused.record, refused["outcome"])
-
-
-def test_a_wrench_stamped_ahead_is_not_a_clock_jump(refused):
-    """One wrench stamped +0.3 s (inside the 1 s window) dropped the pass's trajectory."""
-    refused["wrench ahead"]
-    assert_the_job_kept_its_word(refused.record, refused["outcome"])
-    assert "clock jumped" not in refused.force_controller_log
-
-
-def test_a_forged_pass_result_does_not_end_the_job(refused):
+def test_a_forged_pass_result_does_not_end_the_job(attack):
     """One forged PassResult ended the job DONE at X = 0 with the part 0.50 mm high."""
-    assert "/rogue" in refused["forged result"]
-    outcome = refused["outcome"]
-    assert_the_job_kept_its_word(refused.record, outcome)
+    a = attack()
+    job_id = start_job(a)
+    in_pass(a, 0)
+    forged = PassResult(job_id=job_id, pass_index=0, status=PassResult.COMPLETED, measured_cut_depth_mm=0.8,
+                        removed_volume_mm3=600.0, duration_s=8.0, feed_speed_mm_s=20.0,
+                        specific_energy_j_mm3=10.0, cut_depth_coefficient=0.001)
+    forged.header.stamp.sec = int(a.record.force[-1][0]) + 1
+    a.publisher(PassResult, "grinding/pass_result", RESULTS, to=("sequence_planner", "pass")).publish(forged)
+    said = a.wait_for_refusal("/sequence_planner", "foreign_result", "refused")
+    assert "/rogue" in said
+    outcome = run_to_end(a)
+    assert_the_job_kept_its_word(a.record, outcome)
     assert outcome["passes"] >= 2
 
 
@@ -395,24 +278,40 @@ def _set_parameter(a: Attack, node: str, name: str, value: float):
     return future.result().results[0]
 
 
-def test_max_force_cannot_be_raised_live_beyond_the_cell(refused):
+def test_max_force_cannot_be_raised_live_beyond_the_cell(attack):
     """max_force_n raised live to 10,000 N: the plant tripped at 152 N and stayed at 0 N."""
-    answer = refused["max force"]
+    a = attack()
+    start_job(a)
+    answer = _set_parameter(a, "/force_controller", "max_force_n", 10_000.0)
     assert not answer.successful and "F_max" in answer.reason
-    assert_the_job_kept_its_word(refused.record, refused["outcome"])
+    assert_the_job_kept_its_word(a.record, run_to_end(a))
 
 
-def test_a_huge_ik_request_blocks_neither_the_job_nor_the_other_services(refused):
+def test_a_huge_ik_request_blocks_neither_the_job_nor_the_other_services(attack):
     """One 100,000-pose IK request blocked FK, TestPose and the relay for 17 s and made pass
     1 REJECTED (issue 37): it is refused at once, a request at the cap (one that costs under
-    1 s) runs apart from the other services, which answer within 1 s, and the job goes on
-    (here sent once pass 1 has ground, as the next pass is planned)."""
-    huge_code, light_s = refused["huge ik"]
-    assert huge_code != KinematicsErrorCode.SUCCESS
-    assert light_s < 1.0
-    outcome = refused["outcome"]
-    assert_the_job_kept_its_word(refused.record, outcome)
-    assert all(r["status"] != "rejected" for r in refused.record.results.values())
+    1 s) runs apart from the other services, which answer within 1 s, and the job goes on."""
+    from hex_control.kinematics.service import MAX_POSES
+
+    a = attack()
+    start_job(a)
+    a.spin_until(lambda: 1 in a.record.commands, "pass 1's command")
+    inverse = a.rogue.create_client(InverseKinematics, "kinematics/inverse_kinematics")
+    forward = a.rogue.create_client(ForwardKinematics, "kinematics/forward_kinematics")
+    assert inverse.wait_for_service(timeout_sec=30.0) and forward.wait_for_service(timeout_sec=30.0)
+    pose = ToolPose(z_mm=-2100.0)
+    huge = inverse.call_async(InverseKinematics.Request(poses=[pose] * 100_000))
+    a.spin_until(huge.done, "the refusal of 100,000 poses", 30.0)
+    assert huge.result().error_code.val != KinematicsErrorCode.SUCCESS
+    heavy = inverse.call_async(InverseKinematics.Request(poses=[pose] * MAX_POSES))
+    asked = time.monotonic()
+    light = forward.call_async(ForwardKinematics.Request(strut_lengths_mm=[]))
+    a.spin_until(light.done, "forward kinematics during the heavy request", 30.0)
+    assert time.monotonic() - asked < 1.0
+    a.spin_until(heavy.done, "the request at the cap", 60.0)
+    outcome = run_to_end(a)
+    assert_the_job_kept_its_word(a.record, outcome)
+    assert all(r["status"] != "rejected" for r in a.record.results.values())
 
 
 def test_a_plant_restarted_mid_pass_is_never_reported_completed(attack):
@@ -427,12 +326,23 @@ def test_a_plant_restarted_mid_pass_is_never_reported_completed(attack):
     assert a.record.results[1]["status"] in ("faulted", "aborted"), a.record.results[1]
 
 
-def test_a_goal_for_another_bead_is_rejected_at_goal_response(refused):
+def test_a_goal_for_another_bead_is_rejected_at_goal_response(attack):
     """The README's goal (60 mm) on a cell whose plant holds a 300 mm bead ran 9 s late with
-    0.35 mm left; here the plant holds 60 mm and the goal says 300 mm (refused before the
-    shared job starts, which then runs as its own goal says)."""
-    assert "300" in refused["wrong bead"]
-    assert refused.record.goal["bead_length_mm"] == pytest.approx(BEAD["bead_length_mm"])
+    0.35 mm left; here the plant holds 60 mm and the goal says 300 mm."""
+    a = attack()
+    a.session.wait_until_ready()
+    a.spin_until(lambda: (status := a.status("/sequence_planner")) is not None and any(
+        v.key == "scanned_bead" for v in status.values), "the sequence planner to hold the plant's scan", 60.0)
+    client = ActionClient(a.rogue, GrindBead, "sequence_planner/grind_bead")
+    try:
+        goal = GrindBead.Goal(job_id="wrong-bead", bead_height_mm=0.8, bead_width_mm=12.5, bead_length_mm=300.0,
+                              deadline_s=30.0)
+        sent = client.send_goal_async(goal)
+        a.spin_until(sent.done, "the goal's response", 60.0)
+        assert not sent.result().accepted
+        a.wait_for_refusal("/sequence_planner", "rejected_goals", "300")
+    finally:
+        client.destroy()
 
 
 def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
