@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -493,3 +494,12 @@ def test_a_pass_result_clears_the_overdue_fault(tmp_path):
     assert "overdue" in rig.health.faults
     rig.result()
     assert "overdue" not in rig.health.faults
+
+
+def test_settings_from_the_nodes_parameters_take_0_as_the_configured_cut_model():
+    defaults = SequencerSettings(Path("jobs"))
+    settings = SequencerSettings.from_parameters(lambda name: {"job_dir": "jobs", "k1_estimate_cv": 0.0}.get(
+        name, getattr(defaults, name)))
+    assert settings == dataclasses.replace(defaults, k1_estimate_cv=None) and isinstance(settings.job_dir, Path)
+    assert SequencerSettings.from_parameters(lambda name: str(defaults.job_dir) if name == "job_dir"
+                                             else getattr(defaults, name)) == defaults

@@ -104,6 +104,12 @@ class PlannedPass:
     safety: str = ""
     planning_s: float = 0.0  # wall time the planning took (s; not in ``values``: the status stays deterministic)
 
+    def summary(self) -> str:
+        """One line for the log: the depth planned, the pass's duration, the planning's cost."""
+        count = self.plan.simulations
+        return (f"{self.plan.planned_depth_mm:.4f} mm in {self.plan.time_s[-1]:.2f} s ({count} simulation"
+                f"{'s' if count > 1 else ''}, {self.planning_s:.2f} s wall)")
+
 
 @dataclass(frozen=True)
 class Verdict:

@@ -77,7 +77,7 @@ from hex_control.grinding.measured_part import (
 from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.outlook import outlook
 from hex_control.grinding.sdp import build_controls, solve
-from hex_control.grinding.stochastic import planned_on_estimate
+from hex_control.grinding.stochastic import CutDepthModel, planned_on_estimate
 
 # PassResult.status, as on the wire
 COMPLETED_PASS, ABORTED_PASS, REJECTED_PASS, FAULTED_PASS = 0, 1, 2, 3
@@ -109,6 +109,20 @@ class SequencerSettings:
     max_overgrind_mm: float = 2.0  # no pass removes more than the material plus this (the force axis's travel)
     scan_tolerance_mm: float = 1e-3  # a result's removal against the scans' (mm of mean height)
     k1_estimate_cv: float | None = K1_ESTIMATE_CV  # None: the configured cut model, the thesis's
+
+    @classmethod
+    def from_parameters(cls, value: Callable[[str], object]) -> SequencerSettings:
+        """The settings from the node's parameters, one per field (``value(name)``): ``job_dir``
+        a path, a ``k1_estimate_cv`` of 0 the configured cut model (None)."""
+        values = {f.name: value(f.name) for f in dataclasses.fields(cls)}
+        return cls(**values | {"job_dir": Path(values["job_dir"]), "k1_estimate_cv": values["k1_estimate_cv"] or None})
+
+
+def policy_cut_model(cut_model: CutDepthModel, estimate_cv: float | None) -> tuple[CutDepthModel, float]:
+    """The cut model the policy is solved with and the factor its K1 is divided by: a pass
+    planned on the estimated K1 (``stochastic.planned_on_estimate``), or the configured model
+    as it is (``estimate_cv`` None)."""
+    return (cut_model, 1.0) if estimate_cv is None else planned_on_estimate(cut_model, estimate_cv)
 
 
 @dataclass(frozen=True)
@@ -257,9 +271,7 @@ class Sequencer:
         self.settings, self.base_config = settings, planner_config
         _, self.charges, self.grid, self.cut_model = parse_planner_config(planner_config)
         # the cut of a pass planned on the predictor's K1, which the policy is solved for
-        estimate_cv = settings.k1_estimate_cv  # None: the configured cut model (the thesis's)
-        self.policy_model, self.mean_factor = (self.cut_model, 1.0) if estimate_cv is None \
-            else planned_on_estimate(self.cut_model, estimate_cv)
+        self.policy_model, self.mean_factor = policy_cut_model(self.cut_model, settings.k1_estimate_cv)
         self._profile: tuple | None = None  # (job id, passes, Profile) of the plant's latest scan
         self._machine_force_n = math.nan  # the configured F_max of the job being started (N)
         self._goal_profile: Profile | None = None  # the running goal's bead, if the goal gave its profile

@@ -470,15 +470,13 @@ def start_policy(record: JobRecord):
 
     from hex_control.grinding.config import load_planner_config
     from hex_control.grinding.sdp import solve
-    from hex_control.grinding.sequencer import SequencerSettings
-    from hex_control.grinding.stochastic import planned_on_estimate
+    from hex_control.grinding.sequencer import SequencerSettings, policy_cut_model
 
     process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
     changes = {"bead_width_mm": record.goal["bead_width_mm"], "bead_length_mm": record.goal["bead_length_mm"]}
     if record.goal.get("reset_time_s") is not None:
         changes["reset_time_s"] = record.goal["reset_time_s"]
-    estimate_cv = SequencerSettings(Path()).k1_estimate_cv
-    model, factor = (cut_model, 1.0) if estimate_cv is None else planned_on_estimate(cut_model, estimate_cv)
+    model, factor = policy_cut_model(cut_model, SequencerSettings(Path()).k1_estimate_cv)
     process = dataclasses.replace(process, **changes, specific_energy_j_mm3=process.specific_energy_j_mm3 / factor)
     grid = grid.covering(record.goal["deadline_s"], record.goal["material_mm"])
     return solve(process, charges, grid, model), charges

@@ -179,10 +179,7 @@ class PassPlannerNode(Node):
         self.path_pub.publish(ifc.tool_path_message(ifc.time_msg(start_s), request.job_id, request.pass_index,
                                                 path.time_s[1] - path.time_s[0],
                                                 np.hstack([path.positions_mm, orientation])))
-        sims = f"{plan.simulations} simulation{'s' if plan.simulations > 1 else ''}"
-        self.get_logger().info(f"pass {request.pass_index} of job {request.job_id!r} planned: "
-                               f"{plan.planned_depth_mm:.4f} mm in {plan.time_s[-1]:.2f} s ({sims}, "
-                               f"{planned.planning_s:.2f} s wall)")
+        self.get_logger().info(f"pass {request.pass_index} of job {request.job_id!r} planned: {planned.summary()}")
         self._status(request, DiagnosticStatus.WARN if planned.note else DiagnosticStatus.OK,
                      planned.note or "planned", planned.values)
 

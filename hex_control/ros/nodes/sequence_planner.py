@@ -8,7 +8,6 @@ pass_planner/status (pass_planner), load_predictor/pass/prediction (K1, J/mm^3).
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import time
 from pathlib import Path
@@ -105,9 +104,7 @@ class SequencePlannerNode(Node):
         self._do(self.core.resume(now()))
 
     def _settings(self) -> SequencerSettings:
-        values = {f.name: self.get_parameter(f.name).value for f in dataclasses.fields(SequencerSettings)}
-        return SequencerSettings(**values | {"job_dir": Path(values["job_dir"]),
-                                             "k1_estimate_cv": values["k1_estimate_cv"] or None})
+        return SequencerSettings.from_parameters(lambda name: self.get_parameter(name).value)
 
     def _do(self, out) -> None:
         """Send what the core decided."""
