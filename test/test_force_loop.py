@@ -117,6 +117,25 @@ def test_appendix_b_model_has_the_9_hz_pole_of_eq_7_3():
     assert -np.roots(num)[0] == pytest.approx(5000.0)
 
 
+@pytest.mark.parametrize("kind", ["two_pole", "third_order"])
+def test_the_plants_state_space_is_scipy_signals_bit_for_bit(kind):
+    """The plant builds its table and machine without scipy.signal (0.4 s of its start): the
+    canonical form and the zero-order hold are tf2ss's and cont2discrete's to the last bit."""
+    from scipy.signal import cont2discrete, tf2ss
+
+    from hex_control.control.discretize import controller_canonical, zero_order_hold
+    from hex_control.plant.force_table import position_loop
+    num, den = position_loop(kind)
+    a, b, c, _ = tf2ss(num, den)
+    mine = controller_canonical(num, den)
+    assert all(np.array_equal(x, y) for x, y in zip(mine, (a, b, c[0])))
+    ad, bd, *_ = cont2discrete((a, b, np.eye(len(a)), np.zeros((len(a), 1))), 1e-3, method="zoh")
+    assert all(np.array_equal(x, y) for x, y in zip(zero_order_hold(*mine[:2], 1e-3), (ad, bd)))
+    two_inputs = np.hstack([b, -2 * b])  # the machine's struts: several inputs
+    ad, bd, *_ = cont2discrete((a, two_inputs, np.eye(len(a)), np.zeros((len(a), 2))), 1e-3, method="zoh")
+    assert all(np.array_equal(x, y) for x, y in zip(zero_order_hold(a, two_inputs, 1e-3), (ad, bd)))
+
+
 def test_third_order_table_tracks_like_the_two_pole_fit_at_low_frequency():
     """Both position loops: the same steady state, and a step response whose 63 % time is
     set by the 9 Hz pole (about 18 ms for one pole at 9 Hz; the 40 Hz pole of 7.3 adds 4 ms)."""

@@ -119,7 +119,8 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     wait_until(lambda: states, 10.0, what="strut states")
     commands.publish(JointState(name=names, position=[2.61] * 6))
     start = len(published)
-    wait_until(lambda: len(published) > start and published[-1][0] - published[start][0] >= 2.0, 30.0, what="2 s of sim time")
+    wait_until(lambda: len(published) > start and published[-1][0] - published[start][0] >= 2.0, 30.0,
+               what="2 s of sim time")
     window = np.array(published[start:])
     sim_s, lag_s = window[:, 0], window[:, 1] - window[:, 0]
     first, last = sim_s < sim_s[0] + 0.5, sim_s > sim_s[-1] - 0.5

@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
 
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 from hex_control.estimation.kalman import predict_series
@@ -141,6 +140,8 @@ def identify(measurements) -> Identification:
 
     def objective(theta):
         return negative_log_likelihood(_to_model(theta), x)
+
+    from scipy.optimize import minimize  # here: 0.3 s of a predictor node's start, which may never identify
 
     best = None
     for start in _starting_points(x):

@@ -22,9 +22,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import cont2discrete, tf2ss
 
 from hex_control.config import cell_default
+from hex_control.control.discretize import controller_canonical, zero_order_hold
 
 
 @dataclass(frozen=True)
@@ -86,8 +86,7 @@ def position_loop(kind: str, pole1_hz: float = 9.0, pole2_hz: float = 40.0):
 
 
 def _discrete(a, b, dt):
-    ad, bd, *_ = cont2discrete((np.asarray(a, float), np.asarray(b, float).reshape(-1, 1),
-                                np.eye(len(a)), np.zeros((len(a), 1))), dt, method="zoh")
+    ad, bd = zero_order_hold(a, np.asarray(b, float).reshape(-1, 1), dt)
     return ad, bd[:, 0]
 
 
@@ -99,9 +98,10 @@ class ForceTable:
         if not step_s > 0:
             raise ValueError("step_s must be > 0")
         self.p, self.step_s = parameters, step_s
-        a, b, c, _ = tf2ss(*position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz))
+        loop = position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz)
+        a, b, c = controller_canonical(*loop)
         self._table = _discrete(a, b[:, 0], step_s)
-        self._output = c[0]
+        self._output = c
         self._rest = -np.linalg.solve(a, b[:, 0])  # state at rest per mm of command (unit DC gain)
         w = 2 * math.pi * parameters.sensor_cutoff_hz
         self._sensor = _discrete([[0, 1], [-w * w, -2 * parameters.sensor_damping * w]], [0, w * w], step_s)

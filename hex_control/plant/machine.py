@@ -17,9 +17,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import cont2discrete
 
 from hex_control.config import cell_default
+from hex_control.control.discretize import zero_order_hold
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,7 @@ class Machine:
         a[2 * n + 1, 2 * n + 1] = -2 * zm * wm
         a[2 * n + 1] -= parameters.participation * a[n:2 * n].sum(axis=0)
         b[2 * n + 1] = -parameters.participation * b[n:2 * n].sum(axis=0)
-        ad, bd, *_ = cont2discrete((a, b, np.eye(2 * n + 2), np.zeros((2 * n + 2, n))), step_s, method="zoh")
+        ad, bd = zero_order_hold(a, b, step_s)
         self._ad, self._bd = ad, bd
         self.reset(np.zeros(n))
 
