@@ -53,6 +53,7 @@ class Attack:
     """A job on the demo's graph with a rogue node beside the observer, and /diagnostics kept."""
 
     def __init__(self, tmp_path, start: bool = True, **session_options):
+        session_options.setdefault("record", False)  # nothing here reads the recording: its CPU spared
         self.session = JobSession(tmp_path, seed=SEED, plant_overrides=BEAD, **session_options)
         self.record = self.session.record
         self.rogue = rclpy.create_node("rogue", context=self.session.context)

@@ -23,7 +23,7 @@ BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end:
 
 
 def _job(directory, seed: int) -> dict:
-    with JobSession(directory, seed=seed, plant_overrides=BEAD) as session:
+    with JobSession(directory, seed=seed, plant_overrides=BEAD, record=False) as session:
         session.start_job(20.0, RESET_TIME_S, job_id="determinism")
         outcome = session.wait_for_outcome(400.0)
     record = session.record

@@ -97,7 +97,7 @@ STEADY = {**BEAD, "specific_energy_cv": 0.0}
 def test_a_job_on_the_3pru_head_ends_as_the_policy_intends(ros_env, tmp_path):
     """The 3-PRU head (its dynamics under its drives) on a feed stage; the hexapod's steady
     job is the restart test's below (one job less for CI)."""
-    with JobSession(tmp_path, seed=3, plant_overrides=STEADY,
+    with JobSession(tmp_path, seed=3, plant_overrides=STEADY, record=False,
                     machine_file=str(config_file("machines/pru3_feed.yaml"))) as session:
         session.start_job(18.0, RESET_TIME_S)
         outcome = session.wait_for_outcome(400.0)
@@ -118,7 +118,7 @@ def restart_mid_job(session, deadline_s: float, node: str, when, what: str) -> d
 def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
     """On the hexapod: the planner is killed after pass 0 and restarted; the job goes on
     from its log and every pass still cuts what was planned."""
-    with JobSession(tmp_path, seed=4, plant_overrides=STEADY) as session:
+    with JobSession(tmp_path, seed=4, plant_overrides=STEADY, record=False) as session:
         outcome = restart_mid_job(session, 22.0, "sequence_planner", lambda: 0 in session.record.results,
                                   "the first pass")
         restarted_log = session.graph.log_tail("sequence_planner", 200)
@@ -137,7 +137,7 @@ def test_a_plant_restarted_mid_job_does_not_deadlock_the_lockstep_graph(ros_env,
     trajectory and follows the new clock; the job goes on to an end the policy chooses
     (before the fix the lock-step graph deadlocked), every pass cutting the part the one
     before left."""
-    with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
+    with JobSession(tmp_path, seed=5, plant_overrides=BEAD, record=False) as session:
         outcome = restart_mid_job(session, 30.0, "plant", lambda: 1 in session.record.trajectories,
                                   "pass 1's force trajectory")
         controller_log = session.graph.log_tail("force_controller", 200)
@@ -157,12 +157,12 @@ def test_a_job_cut_off_is_taken_up_by_a_resumed_run_on_the_part_as_it_was(ros_en
     unfinished is refused."""
     from hex_control.grinding.job import read_log, unfinished_logs
 
-    with JobSession(tmp_path, seed=6, plant_overrides=STEADY) as first:
+    with JobSession(tmp_path, seed=6, plant_overrides=STEADY, record=False) as first:
         first.start_job(22.0, RESET_TIME_S, job_id="cut-off")
         first.spin_until(lambda: 0 in first.record.results and 1 in first.record.contours, 300.0, "the first pass")
     [log] = unfinished_logs(tmp_path / "jobs")
     done = sum(r["type"] == "result" for r in read_log(log))
-    with JobSession(tmp_path, seed=6, plant_overrides=STEADY, resume=True) as resumed:
+    with JobSession(tmp_path, seed=6, plant_overrides=STEADY, record=False, resume=True) as resumed:
         assert resumed.resume_job() == "cut-off"
         outcome = resumed.wait_for_outcome(400.0)
     record = resumed.record
@@ -187,7 +187,7 @@ def test_a_job_cut_off_is_taken_up_by_a_resumed_run_on_the_part_as_it_was(ros_en
 
 
 def test_losing_the_force_controller_aborts_the_pass_and_the_planner_replans(ros_env, tmp_path):
-    with JobSession(tmp_path, seed=5, plant_overrides=BEAD) as session:
+    with JobSession(tmp_path, seed=5, plant_overrides=BEAD, record=False) as session:
         session.start_job(30.0, RESET_TIME_S)
         record = session.record
         # the kill's sim time is that of the last command the plant got: the telemetry the
@@ -267,7 +267,8 @@ def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tm
     """The same restart with the plant in real time (at twice the wall clock): the clock
     jumps back while pass 1 is announced; the job continues or aborts by the policy, it does
     not wait forever, and the force controller notes the jump once."""
-    with JobSession(tmp_path, seed=5, mode="realtime", real_time_factor=2.0, plant_overrides=BEAD) as session:
+    with JobSession(tmp_path, seed=5, mode="realtime", real_time_factor=2.0, plant_overrides=BEAD,
+                    record=False) as session:
         outcome = restart_mid_job(session, 30.0, "plant", lambda: 1 in session.record.trajectories,
                                   "pass 1's force trajectory")
         controller_log = session.graph.log_tail("force_controller", 200)

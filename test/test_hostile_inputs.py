@@ -131,7 +131,7 @@ def refuse_a_hostile_command(session, node) -> None:
 
 
 def test_hostile_messages_crash_nothing_and_are_counted(ros_env, tmp_path):
-    with JobSession(tmp_path, plant_overrides={"bead_length_mm": 120.0}) as session:
+    with JobSession(tmp_path, plant_overrides={"bead_length_mm": 120.0}, record=False) as session:
         node = rclpy.create_node("fuzzer", context=session.context)
         session.executor.add_node(node)
         commands, struts, diagnostics = [], [], {}

@@ -108,7 +108,7 @@ def cell(ros_env, tmp_path_factory):
         view = NodeProcess([sys.executable, "-m", "hex_control.cli", "view", "--port", "0"], ros_env,
                            output / "view.log")
         stack.callback(view.stop)
-        session = stack.enter_context(JobSession(output, seed=5, plant_overrides=JOB))
+        session = stack.enter_context(JobSession(output, seed=5, plant_overrides=JOB, record=False))
         port = int(wait_until(lambda: re.search(r"ws://127\.0\.0\.1:(\d+)", view.output()), 60.0,
                               what="hexctl view's address").group(1))
         client = FoxgloveClient(port)
