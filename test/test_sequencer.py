@@ -174,16 +174,25 @@ def test_the_decision_waits_for_the_k1_predicted_from_the_pass_just_measured(tmp
     assert second["specific_energy_j_mm3"] == 12.0
     k1 = dataclasses.replace(PROCESS, specific_energy_j_mm3=12.0, bead_width_mm=12.5, bead_length_mm=300.0)
     assert second["cut_depth_mm"] == float(k1.cut_depth_mm(second["normal_force_n"], second["feed_speed_mm_s"]))
-    # a silent predictor holds the next decision for prediction_wait_s only
+    # a predictor on the graph is waited for however busy the machine (its answer decides the
+    # job); one that is gone holds the decision for prediction_wait_s, a stuck one prediction_stall_s
     rig.result(specific_energy_j_mm3=12.0)
     assert len(rig.commands) == 2
     rig.do(rig.core.tick(rig.now + 1.0))
+    rig.do(rig.core.tick(rig.now + 30.0))
     assert len(rig.commands) == 2
-    rig.do(rig.core.tick(rig.now + 2.5))
+    rig.heard = False
+    rig.do(rig.core.tick(rig.now + 30.0))
     assert len(rig.commands) == 3 and rig.health.counts["prediction_timeouts"] == 1
+    rig.heard = True
+    rig.result(specific_energy_j_mm3=12.5)
+    rig.do(rig.core.tick(rig.now + 59.0))
+    assert len(rig.commands) == 3
+    rig.do(rig.core.tick(rig.now + 61.0))
+    assert len(rig.commands) == 4 and rig.health.counts["prediction_timeouts"] == 2
     # a result without a measured K1 (nan: nothing removed) waits for nothing
     rig.result(specific_energy_j_mm3=math.nan)
-    assert len(rig.commands) == 4 or rig.finished is not None
+    assert len(rig.commands) == 5 or rig.finished is not None
 
 
 def test_a_moved_k1_re_solves_and_implausible_ones_are_refused(tmp_path):

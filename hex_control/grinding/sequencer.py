@@ -10,7 +10,9 @@ had decided rather than deciding another.
 
 The prediction made from pass k's measured K1 is the one for pass k+1: while a predictor
 publishes, the decision after pass k waits for it (the prediction stamped like the pass
-result; at most ``prediction_wait_s``). Each command carries that K1 down. A plan's force
+result), however late it comes on a loaded machine: it decides the job. A predictor gone
+from the graph holds it ``prediction_wait_s``, a silent one on it ``prediction_stall_s``
+(wall s). Each command carries that K1 down. A plan's force
 (the pass planner's force trajectory) re-solves the policy with the force the plans reach.
 
 A job's result is the truth (issue 37): every input is checked against what this tier
@@ -99,7 +101,10 @@ class SequencerSettings:
     resolve_threshold: float = 0.05  # relative move of K1 or of the plans' force that re-solves
     pass_timeout_s: float = 300.0  # a pass outstanding this long ends the job ABORTED
     command_resend_s: float = 5.0  # an unacknowledged command is sent again after this; 0 = never
-    prediction_wait_s: float = 2.0  # a decision waits this long for the K1 of the pass just measured
+    prediction_wait_s: float = 2.0  # a decision waits this long for the K1 of the pass just measured, once
+    # no predictor publishes; while one does, up to prediction_stall_s: an answer late on a loaded
+    # machine is still the answer (deciding without it made a seeded job depend on the load)
+    prediction_stall_s: float = 60.0
     max_deadline_s: float = 1800.0  # bounded work: the solve grows with the deadline
     max_material_mm: float = 20.0
     overdue_factor: float = 3.0  # a pass is overdue after factor x planned duration + margin
@@ -780,7 +785,8 @@ class Sequencer:
     def tick(self, now_s: float) -> Outputs:
         """Once a second: the prediction wait, resends, a pass overdue."""
         out, s = Outputs(), self.settings
-        if self._awaited and now_s - self._awaited[1] > s.prediction_wait_s:
+        waited_s = now_s - self._awaited[1] if self._awaited else 0.0
+        if waited_s > s.prediction_stall_s or (waited_s > s.prediction_wait_s and not self.predictor_heard()):
             self._awaited = None
             self.health.count("prediction_timeouts")
             self.log("warn", "no K1 prediction for the pass just measured: deciding without it")

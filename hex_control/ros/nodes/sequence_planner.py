@@ -41,8 +41,10 @@ PARAMETERS = {
         ("pass_timeout_s", "wall time to wait for a pass result before aborting the job", 1.0, 86_400.0, True),
         ("command_resend_s", "wall time after which a pass command the pass planner has not acknowledged on "
          "/pass_planner/status is published again (a lost delivery); 0 = never", 0.0, 3600.0, True),
-        ("prediction_wait_s", "wall time a decision waits for the K1 prediction from the pass just measured, when "
-         "a predictor publishes; 0 = decide at once", 0.0, 600.0, True),
+        ("prediction_wait_s", "wall time a decision waits for the K1 prediction from the pass just measured once "
+         "no predictor publishes; 0 = decide at once", 0.0, 600.0, True),
+        ("prediction_stall_s", "wall time a decision waits for that prediction while a predictor publishes (a "
+         "late answer on a loaded machine is still the answer)", 0.0, 3600.0, True),
         ("max_deadline_s", "longest goal deadline accepted: the policy solve grows with it (40000 s took 152 s and "
          "1 GB on the executor thread)", 1.0, 86_400.0, False),
         ("max_material_mm", "highest mean bead height accepted, for the same reason", 0.01, 1000.0, False),
