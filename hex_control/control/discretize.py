@@ -3,13 +3,14 @@ state space, and its zero-order-hold discretization.
 
 Both are ``scipy.signal``'s (``tf2ss``, ``cont2discrete(method="zoh")``) to the last bit
 (test_force_loop.py), without importing scipy.signal: it is 0.4 s of a node's start, and
-the plant builds its table and machine from these at every start. Units are the model's.
+the plant builds its table and machine from these at every start; scipy.linalg is imported
+by the first hold, so that a module that only may discretize (the energy-optimal law, in
+the force controller that runs PI) costs nothing at start. Units are the model's.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import expm
 
 
 def controller_canonical(num, den) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -25,6 +26,8 @@ def controller_canonical(num, den) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def zero_order_hold(a, b, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """(A_d, B_d) of x' = A x + B u with u held over each ``dt_s``: the exponential of
     [[A, B], [0, 0]] dt (Van Loan 1978). ``b`` is (n, m)."""
+    from scipy.linalg import expm
+
     a, b = np.asarray(a, float), np.asarray(b, float)
     n, m = b.shape
     held = expm(dt_s * np.block([[a, b], [np.zeros((m, n + m))]]))[:n]

@@ -15,11 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-
-def _expm(a: np.ndarray) -> np.ndarray:
-    from scipy.linalg import expm  # here: scipy.linalg is 0.13 s of the force controller's start, which runs PI
-
-    return expm(a)
+from hex_control.control.discretize import zero_order_hold
 
 
 def state_matrices(mass, damping, stiffness, input_matrix) -> tuple[np.ndarray, np.ndarray]:
@@ -34,11 +30,8 @@ def state_matrices(mass, damping, stiffness, input_matrix) -> tuple[np.ndarray, 
 
 
 def input_integral(a: np.ndarray, b: np.ndarray, horizon_s: float) -> np.ndarray:
-    """int_0^h e^(A s) B ds, from the exponential of [[A, B], [0, 0]] h (Van Loan 1978)."""
-    n, m = b.shape
-    block = np.zeros((n + m, n + m))
-    block[:n, :n], block[:n, n:] = a, b
-    return _expm(block * horizon_s)[:n, n:]
+    """int_0^h e^(A s) B ds: the zero-order hold's input matrix (Van Loan 1978)."""
+    return zero_order_hold(a, b, horizon_s)[1]
 
 
 class EnergyIndexController:
@@ -75,8 +68,7 @@ def simulate(mass, damping, stiffness, input_matrix, controller, *, q0, period_s
     Returns (q (steps, n), u (steps, m))."""
     a, b = state_matrices(mass, damping, stiffness, input_matrix)
     n = a.shape[0] // 2
-    ad = _expm(a * period_s)
-    bd = input_integral(a, b, period_s)
+    ad, bd = zero_order_hold(a, b, period_s)
     x = np.concatenate([np.zeros(n), np.atleast_1d(np.asarray(q0, float))])
     qs, us = [], []
     for _ in range(steps):
