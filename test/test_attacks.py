@@ -14,8 +14,6 @@ The job is issue 37's: a 60 mm bead, seed 5, a 30 s deadline.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 import rclpy
@@ -291,7 +289,7 @@ def test_max_force_cannot_be_raised_live_beyond_the_cell(attack):
 def test_a_huge_ik_request_blocks_neither_the_job_nor_the_other_services(attack):
     """One 100,000-pose IK request blocked FK, TestPose and the relay for 17 s and made pass
     1 REJECTED (issue 37): it is refused at once, a request at the cap (one that costs under
-    1 s) runs apart from the other services, which answer within 1 s, and the job goes on."""
+    1 s) runs apart from the other services, which answer before it, and the job goes on."""
     from hex_control.kinematics.service import MAX_POSES
 
     a = attack()
@@ -305,10 +303,11 @@ def test_a_huge_ik_request_blocks_neither_the_job_nor_the_other_services(attack)
     a.spin_until(huge.done, "the refusal of 100,000 poses", 30.0)
     assert huge.result().error_code.val != KinematicsErrorCode.SUCCESS
     heavy = inverse.call_async(InverseKinematics.Request(poses=[pose] * MAX_POSES))
-    asked = time.monotonic()
     light = forward.call_async(ForwardKinematics.Request(strut_lengths_mm=[]))
-    a.spin_until(light.done, "forward kinematics during the heavy request", 30.0)
-    assert time.monotonic() - asked < 1.0
+    # asked after the heavy request, answered before it: the services do not queue behind it
+    # (an order, not a time: both stretch alike on a loaded machine)
+    a.spin_until(lambda: light.done() or heavy.done(), "forward kinematics during the heavy request", 30.0)
+    assert light.done() and not heavy.done()
     a.spin_until(heavy.done, "the request at the cap", 60.0)
     outcome = run_to_end(a)
     assert_the_job_kept_its_word(a.record, outcome)
