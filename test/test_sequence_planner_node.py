@@ -334,6 +334,27 @@ def test_each_pass_is_planned_with_the_k1_predicted_from_the_pass_before(ros, pl
                                                rel=1e-9)
 
 
+def test_another_process_on_the_prediction_topic_does_not_hold_the_decisions(ros, planner):
+    """Only the cell's predictor (/load_predictor/pass) is waited for: with it absent, a rogue
+    publisher on its topic that never answers holds no decision for prediction_stall_s (600 s
+    here: the job could not end), only prediction_wait_s (2 s), and its K1 is never taken."""
+    planner("-p", "prediction_stall_s:=600.0")
+    executor = PassExecutor(ros)
+    executor.specific_energy_j_mm3 = 11.0
+    rogue = ros.node("rogue")
+    forged = rogue.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    rogue.create_subscription(PassResult, "/grinding/pass_result", lambda r: forged.publish(LoadPrediction(
+        header=r.header, quantity="specific_energy_j_mm3", prediction=30.0)), RESULTS)
+    commands = {}
+    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: commands.update(
+        {c.pass_index: c}), RESULTS)
+    ros.wait_for_match(rogue, "/load_predictor/pass/prediction", subscribers=1)
+    result = result_of(send(ros, GrindBead.Goal(job_id="bead6", bead_height_mm=1.5, bead_width_mm=12.5,
+                                                bead_length_mm=300.0, deadline_s=120.0)), 60.0).result
+    assert result.passes >= 2 and sorted(commands) == list(range(result.passes))
+    assert {c.specific_energy_j_mm3 for c in commands.values()} == {PROCESS.specific_energy_j_mm3}
+
+
 def test_a_force_guarded_plan_lowers_the_force_of_the_passes_after_it(ros, planner):
     """Issue 20 item 4: the pass planner's plan of pass 0 reaches only 76 % of the commanded
     depth without exceeding F_max anywhere (the 20 seeded jobs' first pass): the planner

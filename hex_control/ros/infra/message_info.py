@@ -57,6 +57,14 @@ class LostMessages:
         return 0 if last is None or sequence <= last else sequence - last - 1
 
 
+def owner_publishes(node, topic: str, owner_node: str) -> bool:
+    """Does ``owner_node`` (resolved as ``info_subscription``'s owners are) publish ``topic``?
+    Liveness by the graph that another process on the topic cannot fake."""
+    [owner] = resolve_owner_nodes(owner_node, node.get_namespace())
+    return any(f"{info.node_namespace.rstrip('/')}/{info.node_name}" == owner
+               for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic)))
+
+
 def info_subscription(node, msg_type, topic: str, callback, qos, *, diagnostics, name: str,
                       owner_node: str | tuple[str, ...] | None = None,
                       with_source: bool = False, wait_depth: int = 16) -> CommandOwner | None:

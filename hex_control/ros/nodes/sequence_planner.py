@@ -22,7 +22,7 @@ from hex_control.config import config_file
 from hex_control.grinding.sequencer import GoalRequest, PassReport, Sequencer, SequencerSettings
 from hex_control.ros.infra.diagnostics import ERROR, WARN, Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS
-from hex_control.ros.infra.message_info import info_subscription
+from hex_control.ros.infra.message_info import info_subscription, owner_publishes
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
@@ -43,8 +43,7 @@ PARAMETERS = {
          "/pass_planner/status is published again (a lost delivery); 0 = never", 0.0, 3600.0, True),
         ("prediction_wait_s", "wall time a decision waits for the K1 prediction from the pass just measured once "
          "no predictor publishes; 0 = decide at once", 0.0, 600.0, True),
-        ("prediction_stall_s", "wall time a decision waits for that prediction while a predictor publishes (a "
-         "late answer on a loaded machine is still the answer)", 0.0, 3600.0, True),
+        ("prediction_stall_s", "wall time it waits while the predictor publishes: late is not lost", 0.0, 3600.0, True),
         ("max_deadline_s", "longest goal deadline accepted: the policy solve grows with it (40000 s took 152 s and "
          "1 GB on the executor thread)", 1.0, 86_400.0, False),
         ("max_material_mm", "highest mean bead height accepted, for the same reason", 0.01, 1000.0, False),
@@ -71,7 +70,8 @@ class SequencePlannerNode(Node):
         config = yaml.safe_load(Path(self.get_parameter("planner_config").value).read_text()) or {}
         self.core = Sequencer(self._settings(), config, health=self.diagnostics,
                               log=lambda level, text: getattr(self.get_logger(), level)(text),
-                              predictor_heard=lambda: self.count_publishers("load_predictor/pass/prediction") > 0)
+                              predictor_heard=lambda: owner_publishes(self, "load_predictor/pass/prediction",
+                                                                      "load_predictor/pass"))
         self.add_post_set_parameters_callback(lambda _: setattr(self.core, "settings", self._settings()))
         self.results, self.solving = {}, None  # goal uuid -> its Result; the Future of the policy being solved
         self.command_pub = self.create_publisher(PassCommand, "grinding/pass_command", LATCHED)
