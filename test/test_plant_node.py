@@ -311,6 +311,8 @@ def test_each_command_input_obeys_one_publisher_and_counts_the_others(ros, spawn
         wait_until(done, 10.0, interval_s=0.05, what=f"{topic} from {who.get_name()}")
 
     command(rogue, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3), "foreign_force_command")
+    # the counter came on /diagnostics; this reader of the force may match the plant later
+    wait_until(lambda: forces, 10.0, what="the plant's true force")
     assert max(f.wrench.force.z for f in forces) == 0.0  # refused although first
     command(operator, "/plant/force_axis_command", ForceAxisCommand(position_mm=0.3),
             until=lambda: forces[-1].wrench.force.z > 15.0)
