@@ -262,8 +262,11 @@ def test_a_tool_path_becomes_one_strut_trajectory_or_is_refused_whole(ros, kinem
 
 def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ros_env, kinematics_process):
     """Issue 37 item 6: while another node keeps the IK service busy with cap-sized requests
-    (MAX_POSES each, about 0.5 s of work apiece here), FK and TestPose answer within 1 s and
-    a tool path is converted; a 100,000-pose request is refused at once, nothing computed."""
+    (MAX_POSES each, about 0.5 s of work apiece here), FK and TestPose answer in well under the
+    time one of them takes, and a tool path is converted; a 100,000-pose request is refused at
+    once, nothing computed. Judged against the heavy requests' own durations in the same run,
+    so the verdict is the same on a loaded machine: an FK queued behind the IK work would wait
+    for the rest of the request in progress, on average half of one."""
     from trajectory_msgs.msg import JointTrajectory
 
     from ros_harness import RosHarness, run_domain_id
@@ -289,13 +292,16 @@ def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ro
         wait_until(oversized.done, 10.0, 0.005, what="the refusal of 100,000 poses")
         refused_s = time.monotonic() - sent
         heavy = [ik.call_async(InverseKinematics.Request(poses=poses[:MAX_POSES])) for _ in range(6)]
+        answered_at = []  # s, monotonic; the service answers in order, so the differences are durations
+        for future in heavy:
+            future.add_done_callback(lambda _f: answered_at.append(time.monotonic()))
         waits, busy = [], False
         while not heavy[-1].done():
             for client, request in ((fk, ForwardKinematics.Request(strut_lengths_mm=lengths)),
                                     (test_pose, TestPose.Request(poses=[REACHABLE, UNREACHABLE]))):
                 start = time.monotonic()
                 future = client.call_async(request)
-                wait_until(future.done, 1.0, 0.002, what=f"{client.srv_name} within 1 s of a heavy request")
+                wait_until(future.done, 60.0, 0.002, what=f"{client.srv_name} beside the heavy requests")
                 waits.append((time.monotonic() - start, future.result()))
             if len(waits) == 4:  # the IK service is at work: a tool path now
                 publisher.publish(tool_path(PATH[:300], 2))
@@ -304,9 +310,17 @@ def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ro
         wait_until(heavy[-1].done, 60.0, what="the heavy requests")
     finally:
         attacker.close()
-    print(f"100,000 poses refused after {refused_s:.3f} s; FK, TestPose answered in {max(w for w, _ in waits):.3f} s")
+    heavy_s = np.median(np.diff(answered_at))
+    wait_s = np.percentile([w for w, _ in waits], [50, 90])
+    print(f"100,000 poses refused after {refused_s:.3f} s; FK, TestPose answered in {wait_s[0]:.3f} s (median), "
+          f"{wait_s[1]:.3f} s (90th percentile); a heavy request took {heavy_s:.3f} s (median)")
+    # not the worst wait: this process's own GIL (it reads the 5 MB answers) and the machine's
+    # load add rare spikes that say nothing of the node
+    assert len(answered_at) == 6 and wait_s[0] < 0.05 * heavy_s and wait_s[1] < 0.25 * heavy_s, (wait_s, heavy_s)
     assert oversized.result().error_code.val == Code.INVALID_INPUT and not oversized.result().reports
-    assert refused_s < 2.0, f"refusing 100,000 poses took {refused_s:.2f} s"
+    # rclpy converts the whole request before the node can count its poses (docs/known_problems.md):
+    # the refusal costs about a heavy request's conversion, computing the 100,000 four of them
+    assert refused_s < 2.0 * heavy_s, f"refusing 100,000 poses took {refused_s:.2f} s ({heavy_s:.2f} s a heavy one)"
     assert all(f.result().error_code.val == Code.SUCCESS and len(f.result().reports) == MAX_POSES for f in heavy)
     assert len(waits) >= 6, "the heavy requests were too short to show anything"
     assert all(w.error_code.val in (Code.SUCCESS, Code.UNREACHABLE) for _, w in waits)
