@@ -145,24 +145,40 @@ def create_node(node_class):
 
 def run_node(node_class, args=None) -> int:
     """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly. A node
-    that refuses its parameters exits with 2."""
+    that refuses its parameters exits with 2. A node with ``companions()`` (nodes serving its
+    long requests) has each spun on an executor and a thread of its own, and its class's
+    ``SWITCH_INTERVAL_S`` (if set) is the process's GIL switch interval."""
     stop = init(args)
-    node = None
+    nodes, executors, workers = [], [], []
     try:
         node = create_node(node_class)
         if node is None:
             return 2
+        nodes = [node, *getattr(node, "companions", list)()]
+        if interval_s := getattr(node_class, "SWITCH_INTERVAL_S", None):
+            sys.setswitchinterval(interval_s)
         node.get_logger().info(ready_line(node))
         # what start-up built (modules, tables: ~150 000 objects) lives as long as the node: out of
         # the collector's sight, a full collection no longer walks it (0.2 s a time, amid a lock-step period)
         gc.freeze()
-        executor = make_executor()
-        executor.add_node(node)
-        spin_until_stopped(executor, stop)
-        executor.shutdown()
+        executors = [make_executor() for _ in nodes]
+        for executor, each in zip(executors, nodes):
+            executor.add_node(each)
+        workers = [threading.Thread(target=spin_until_stopped, args=(executor, stop), daemon=True)
+                   for executor in executors[1:]]
+        for worker in workers:
+            worker.start()
+        spin_until_stopped(executors[0], stop)
     finally:
-        if node is not None:
-            node.destroy_node()
+        # the workers leave their wait sets before any executor or node is torn down:
+        # shutting down an executor another thread is waiting in can crash the process
+        stop.set()
+        for worker in workers:
+            worker.join(timeout=10.0)
+        for executor in executors:
+            executor.shutdown(timeout_sec=1.0)
+        for each in nodes:
+            each.destroy_node()
         rclpy.try_shutdown()
     _exit_past_background_work(0)
     return 0

@@ -21,9 +21,6 @@ nodes): a long request holds up neither FK, the relays, nor the other heavy serv
 
 from __future__ import annotations
 
-import sys
-import threading
-
 from geometry_msgs.msg import PoseStamped
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -46,7 +43,6 @@ from hex_control_msgs.srv import ComputeWorkspace, ForwardKinematics, InverseKin
 #: of a depth-1 reader queue before it is taken (the burst is refused, the pass left pathless)
 PATHS_IN = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
 Code = KinematicsErrorCode
-SWITCH_INTERVAL_S = 0.00025  #: the process's GIL switch interval (s), see main()
 DEFAULTS = KinematicsSettings()
 OWNER = "(a node name, relative ones resolved in this node's namespace; '' = the first publisher heard)"
 PARAMETERS = {
@@ -70,6 +66,9 @@ class Companion(Node):
 
 
 class KinematicsNode(Node):
+    # An FK answer takes dozens of GIL hand-overs from a heavy request's thread, each up to the
+    # switch interval (5 ms by default): 0.25 ms makes it several times quicker
+    SWITCH_INTERVAL_S = 0.00025
     READY_PARAMETERS = ("machine_file", "max_poses", "setpoint_owner", "tool_path_owner")  # in its start-up line
     HEAVY = (("kinematics_workspace", ComputeWorkspace, "compute_workspace", "_on_workspace"),
              ("kinematics_inverse", InverseKinematics, "inverse_kinematics", "_on_inverse"),
@@ -165,40 +164,7 @@ class KinematicsNode(Node):
 
 
 def main(args=None) -> int:
-    import rclpy
-
-    stop = runtime.init(args)
-    # A thread that waited in rcl_wait needs the GIL back to answer; a heavy request's thread
-    # holds it up to the switch interval each time (5 ms by default), and an FK answer takes
-    # dozens of such hand-overs: 0.25 ms keeps it an order of magnitude quicker
-    sys.setswitchinterval(SWITCH_INTERVAL_S)
-    nodes, executors, workers = [], [], []
-    try:
-        node = runtime.create_node(KinematicsNode)
-        if node is None:
-            return 2
-        nodes = [node, *node.companions()]
-        executors = [runtime.make_executor() for _ in nodes]
-        for executor, each in zip(executors, nodes):
-            executor.add_node(each)
-        workers = [threading.Thread(target=runtime.spin_until_stopped, args=(executor, stop), daemon=True)
-                   for executor in executors[1:]]
-        for worker in workers:
-            worker.start()
-        node.get_logger().info(runtime.ready_line(node))
-        runtime.spin_until_stopped(executors[0], stop)
-    finally:
-        # the workers leave their wait sets before any executor or node is torn down:
-        # shutting down an executor another thread is waiting in can crash the process
-        stop.set()
-        for worker in workers:
-            worker.join(timeout=10.0)
-        for executor in executors:
-            executor.shutdown(timeout_sec=1.0)
-        for each in nodes:
-            each.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return runtime.run_node(KinematicsNode, args)
 
 
 if __name__ == "__main__":
