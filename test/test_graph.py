@@ -52,7 +52,7 @@ def test_a_demo_keeps_to_a_domain_of_its_own_unless_one_is_set():
     """Issue 23 item 4: two demos (or a demo and a user's graph) on one host must not meet."""
     import os
 
-    from hex_control.ros.app.grind_job import use_private_domain
+    from hex_control.ros.app.demo import use_private_domain
 
     environment = {}
     assert use_private_domain(environment)

@@ -16,7 +16,7 @@ from hex_control.kinematics import load_machine
 from hex_control.kinematics.stewart import strut_lengths
 from hex_control.plant.grinding_cell import GrindingCell
 from hex_control.plant.pass_monitor import PassMonitor, ScheduledPass
-from hex_control.plant.reset_time import measure_reset_time
+from hex_control.plant.reset_time import ResetTime, measure_reset_time, reset_time_lines
 from hex_control.plant.tool_locator import ToolLocator
 from hex_control.shaping.shapers import design
 
@@ -154,3 +154,10 @@ def test_shaping_the_reset_move_shortens_the_reset_time():
     assert shaped.peak_deflection_mm < 0.001 and shaped.settle_s == 0.0
     assert shaped.reset_time_s == pytest.approx(nominal + 0.2 + 0.005, abs=0.01)  # + ZVD delay, one sample
     assert plain.reset_time_s > shaped.reset_time_s + 1.0
+
+
+def test_the_demo_says_how_many_fastest_passes_the_shaper_fits():
+    reset = {"unshaped": ResetTime(6.12, 9.0, 1.61, 0.028), "zvd": ResetTime(4.71, 9.2, 0.0, 0.0)}
+    lines = reset_time_lines(reset, 150.0, 45.0)  # a pass at 75 mm/s: 2 s + t_R
+    assert lines[0] == "reset time t_R (unshaped): 6.12 s (settle 1.61 s after the path, peak deflection 0.028 mm)"
+    assert lines[-1] == "shaping buys 1.41 s a pass: 5 -> 6 fastest passes fit in 45 s"  # 45 // 8.12, 45 // 6.71

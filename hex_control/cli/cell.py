@@ -87,7 +87,8 @@ def _demo(args) -> int:
     """``hexctl demo``: the run's options (resumed: the stored ones, a conflict refused), the
     run; a graph that fails (a node died, the loop stood) is one line on stderr and exit 3."""
     from hex_control.grinding.run_files import RUN_DEFAULTS, resumable_job_dir, run_options
-    from hex_control.ros.app.grind_job import GraphFailure, run_demo
+    from hex_control.ros.app.demo import run_demo
+    from hex_control.ros.app.grind_job import GraphFailure
 
     given = {name: getattr(args, name) for name in RUN_DEFAULTS if getattr(args, name) is not None}
     if args.resume is not None:
@@ -119,7 +120,7 @@ def _start_view(port: int, namespace: str):
     import os
     import subprocess
 
-    from hex_control.ros.app.grind_job import use_private_domain
+    from hex_control.ros.app.demo import use_private_domain
 
     if not 0 <= port <= 65535:
         raise ValueError(f"--view: the port must be 0..65535, got {port}")

@@ -100,6 +100,27 @@ class JobRecord:
                 "stall": any(r["stall"] for r in self.results.values())}
 
 
+def start_policy(record: JobRecord):
+    """The policy the sequence planner solved for this goal at the start (same config, and
+    its cut model of a pass planned on the estimated K1; not its force limit from the scan),
+    and the charges: the report's policy map and expected J."""
+    import dataclasses
+
+    from hex_control.config import config_file
+    from hex_control.grinding.config import load_planner_config
+    from hex_control.grinding.sdp import solve
+    from hex_control.grinding.sequencer import SequencerSettings, policy_cut_model
+
+    process, charges, grid, cut_model = load_planner_config(config_file("sequence_planner.yaml"))
+    changes = {"bead_width_mm": record.goal["bead_width_mm"], "bead_length_mm": record.goal["bead_length_mm"]}
+    if record.goal.get("reset_time_s") is not None:
+        changes["reset_time_s"] = record.goal["reset_time_s"]
+    model, factor = policy_cut_model(cut_model, SequencerSettings(Path()).k1_estimate_cv)
+    process = dataclasses.replace(process, **changes, specific_energy_j_mm3=process.specific_energy_j_mm3 / factor)
+    grid = grid.covering(record.goal["deadline_s"], record.goal["material_mm"])
+    return solve(process, charges, grid, model), charges
+
+
 def write_report(record: JobRecord, out: Path, policy=None) -> dict:
     """JSON and PNGs of one job in ``out``; ``policy`` (the start policy) for the map."""
     out = Path(out)

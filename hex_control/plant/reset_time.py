@@ -86,3 +86,35 @@ def measure_reset_time(machine: MachineKind, frame: BeadFrame, length_mm: float,
     settle = last_outside
     return ResetTime(path_s + settle - length_mm / feed_mm_s, path_s, settle,
                      float(np.max(np.abs(deflection))) if deflection else 0.0)
+
+
+def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
+                         machine_file: str = "machines/nist_ingersoll.yaml") -> dict[str, ResetTime]:
+    """t_R measured on the plant's machine model (``machine_file`` under config/), with the
+    input shaper's default (ZVD at the structural mode) and without: what the sequence
+    planner plans with. Keys "unshaped" and "zvd"; ``feed_mm_s`` the grinding phase's feed."""
+    from hex_control.config import config_file, load_cell_configuration
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.kinematics import load_machine
+    from hex_control.shaping.shapers import design
+
+    parameters = MachineParameters(**load_cell_configuration(machine=config_file(machine_file)).structure)
+    machine, document = load_machine(config_file(machine_file))
+    config = load_pass_planner_config("pass_planner.yaml", document)
+    height = config.model.radius_mm * np.sin(config.model.relaxed_angle_rad) + 1.0
+    shaper = design("zvd", parameters.mode_frequency_hz, parameters.mode_damping)
+    return {name: measure_reset_time(machine, config.frame, bead_length_mm, feed_mm_s, height, timing=config.path,
+                                     parameters=parameters, shaper=s)
+            for name, s in (("unshaped", None), ("zvd", shaper))}
+
+
+def reset_time_lines(reset: dict, bead_length_mm: float, deadline_s: float) -> list[str]:
+    """What :func:`calibrate_reset_time`'s ``reset`` means for a job: each t_R, and how many of
+    the fastest passes (75 mm/s, the pass planner's top feed) fit in ``deadline_s`` with and without the shaper."""
+    lines = [f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
+             f"peak deflection {r.peak_deflection_mm:.3f} mm)" for name, r in reset.items()]
+    shortest = bead_length_mm / 75.0
+    unshaped, shaped = reset["unshaped"].reset_time_s, reset["zvd"].reset_time_s
+    lines.append(f"shaping buys {unshaped - shaped:.2f} s a pass: {int(deadline_s // (shortest + unshaped))} -> "
+                 f"{int(deadline_s // (shortest + shaped))} fastest passes fit in {deadline_s:g} s")
+    return lines

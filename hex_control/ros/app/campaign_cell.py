@@ -2,7 +2,7 @@
 
 :func:`grind_cell` runs in a worker process: it leases a ROS domain of the host for the
 cell (:func:`hex_control.campaign.domains.lease_domain`), runs one seeded job on a fresh
-graph with :func:`~hex_control.ros.app.grind_job.run_job`, and writes the job's report
+graph with :func:`~hex_control.ros.app.demo.run_seeded_job`, and writes the job's report
 directory as ``hexctl demo --jobs N`` does (``run.json``, ``job.json`` with ``wall_s`` and
 ``simulated_pass_time_s``, the PNGs, logs and recording). :func:`campaign_settings`
 prepares, once in the driver, what every cell shares: the run options and the calibrated
@@ -25,12 +25,12 @@ def campaign_settings(options: dict, machine_file: str, record: bool = True, tim
     lock-step only: a campaign's outcomes must depend on the seeds alone), the machine
     file, whether to record, the calibrated t_R with the input shaper (printed, as the
     demo prints it) and a job's timeout (s)."""
-    from hex_control.ros.app.grind_job import _calibrated_reset_time
+    from hex_control.ros.app.demo import calibrated_reset_time
 
     if options.get("realtime"):
         raise ValueError("a campaign runs its jobs in lock-step (their outcomes then depend on their seeds "
                          "alone); --realtime is for watching one job: hexctl demo --realtime")
-    reset_time_s = _calibrated_reset_time(options["bead_length"], options["deadline"], machine_file)
+    reset_time_s = calibrated_reset_time(options["bead_length"], options["deadline"], machine_file)
     return {"options": dict(options), "machine_file": machine_file, "record": bool(record),
             "reset_time_s": float(reset_time_s), "timeout_s": float(timeout_s)}
 
@@ -40,7 +40,7 @@ def grind_cell(job: Job) -> dict:
     summary (``job.json``'s content, and ``_where``: host and domain, for campaign.json). A
     graph that fails raises GraphFailure (``resume_dir`` set where an unfinished job is
     left: ``hexctl demo --resume`` takes it up)."""
-    from hex_control.ros.app.grind_job import run_seeded_job
+    from hex_control.ros.app.demo import run_seeded_job
 
     settings = job.settings
     with lease_domain(os.environ) as domain:
