@@ -3,7 +3,8 @@ official ``foxglove-sdk`` (issue 40 item 2), for Foxglove (app.foxglove.dev or t
 app: Open connection -> Foxglove WebSocket -> ws://localhost:8765) when RViz is not there.
 
 A ROS node in the cell's namespace listens to the cell and logs to Foxglove channels, each
-stamped with the cell's sim time (the timeline is the header stamps', not receive time):
+stamped with the cell's sim time (the timeline is the header stamps', not receive time); the
+messages it logs are built in :mod:`hex_control.ros.app.foxglove_scenes`:
 
   /tf, /tf_static           foxglove.FrameTransforms from the robot_state node's TF tree
   /robot_description        the URDF (schema std_msgs/msg/String, JSON): the 3-D panel's URDF layer
@@ -37,136 +38,48 @@ second: a client that connects late has it at once.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 
 import foxglove
 import rclpy
-from foxglove import Channel, Schema
+from foxglove import Channel
 from foxglove.channels import FrameTransformsChannel, SceneUpdateChannel
-from foxglove.messages import (
-    ArrowPrimitive,
-    Color,
-    CubePrimitive,
-    CylinderPrimitive,
-    FrameTransform,
-    FrameTransforms,
-    LinePrimitive,
-    Point3,
-    Pose,
-    Quaternion,
-    SceneEntity,
-    SceneUpdate,
-    SpherePrimitive,
-    Timestamp,
-    Vector3,
-)
+from foxglove.messages import Timestamp
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
 from hex_control.grinding.bead_outline import MAX_CONTOUR_POINTS, MAX_OUTLINE_POINTS, spaced_indices
-from hex_control.kinematics.robot_model import MM, urdf_visuals
 from hex_control.kinematics.robot_telemetry import TelemetryRefused, checked_stamps
+from hex_control.ros.app.foxglove_scenes import (
+    CONTOUR_SCHEMA,
+    STRING_SCHEMA,
+    TABLE_SCHEMA,
+    WRENCH_SCHEMA,
+    bead_scene,
+    force_scene,
+    frame_transforms,
+    json_number,
+    machine_scene,
+    seconds_to_ns,
+)
 from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS, TELEMETRY
 from hex_control.ros.infra.message_info import FOREIGN_WARN_S, info_subscription
 from hex_control.ros.nodes.robot_state import TF_STATIC
 from hex_control_msgs.msg import Contour, PassCommand, PassResult, PlantTelemetry
 
-STRING_SCHEMA = Schema(name="std_msgs/msg/String", encoding="jsonschema", data=json.dumps(
-    {"type": "object", "properties": {"data": {"type": "string"}}}).encode())
-WRENCH_SCHEMA = {"type": "object", "title": "geometry_msgs/msg/WrenchStamped", "properties": {
-    "header": {"type": "object"}, "wrench": {"type": "object"}}}
-CONTOUR_SCHEMA = {"type": "object", "title": "hex_control_msgs/msg/Contour", "properties": {
-    "pass_index": {"type": "integer"}, "x_mm": {"type": "array"}, "z_mm": {"type": "array"},
-    "parent_mm": {"type": "array"}}}
-TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties": {"rows": {"type": "array"}}}
 #: every channel the view logs to (config/foxglove/hex_control.json shows them)
 CHANNEL_TOPICS = ("/tf", "/tf_static", "/robot_description", "/scene/machine", "/scene/bead", "/scene/force",
                   "/plant/wrench", "/plant/true_wrench", "/grinding/contour", "/pass_table")
-FORCE_SCALE_M_PER_N = 1e-3  # the force arrow: 1 mm per N (60 N, F_max, is 60 mm)
 #: the node(s) each input is obeyed from, relative to the cell's namespace (as the cell's nodes obey them)
 OWNERS = {"tf": "robot_state", "tf_static": "robot_state", "robot_description": "robot_state",
           "plant/telemetry": "plant", "grinding/contour": "plant", "grinding/pass_command": "sequence_planner",
           "grinding/pass_result": ("plant", "pass_planner")}
 STATUS = {PassResult.COMPLETED: "completed", PassResult.ABORTED: "aborted", PassResult.REJECTED: "rejected",
           PassResult.FAULTED: "faulted"}
-
-
-def _ns(seconds: float) -> int:
-    return max(0, round(seconds * 1e9))
-
-
-def _stamp(stamp) -> Timestamp:
-    return Timestamp(sec=int(stamp.sec), nsec=int(stamp.nanosec))
-
-
-def _finite(value: float):
-    """JSON has no NaN: None instead."""
-    return float(value) if math.isfinite(value) else None
-
-
-def frame_transforms(msg: TFMessage) -> FrameTransforms:
-    return FrameTransforms(transforms=[FrameTransform(
-        timestamp=_stamp(t.header.stamp), parent_frame_id=t.header.frame_id, child_frame_id=t.child_frame_id,
-        translation=Vector3(x=t.transform.translation.x, y=t.transform.translation.y, z=t.transform.translation.z),
-        rotation=Quaternion(x=t.transform.rotation.x, y=t.transform.rotation.y, z=t.transform.rotation.z,
-                            w=t.transform.rotation.w)) for t in msg.transforms])
-
-
-def machine_scene(urdf: str) -> SceneUpdate:
-    """The URDF's visuals as scene entities, one per link, locked to the link's frame."""
-    by_link = {}
-    for v in urdf_visuals(urdf):
-        pose = Pose(position=Vector3(x=v.translation_m[0], y=v.translation_m[1], z=v.translation_m[2]),
-                    orientation=Quaternion(x=v.rotation_xyzw[0], y=v.rotation_xyzw[1], z=v.rotation_xyzw[2],
-                                           w=v.rotation_xyzw[3]))
-        size, color = Vector3(x=v.size_m[0], y=v.size_m[1], z=v.size_m[2]), Color(r=v.rgba[0], g=v.rgba[1],
-                                                                                  b=v.rgba[2], a=v.rgba[3])
-        shapes = by_link.setdefault(v.link, {"cubes": [], "cylinders": [], "spheres": []})
-        if v.shape == "box":
-            shapes["cubes"].append(CubePrimitive(pose=pose, size=size, color=color))
-        elif v.shape == "cylinder":
-            shapes["cylinders"].append(CylinderPrimitive(pose=pose, size=size, bottom_scale=1.0, top_scale=1.0,
-                                                         color=color))
-        else:
-            shapes["spheres"].append(SpherePrimitive(pose=pose, size=size, color=color))
-    return SceneUpdate(entities=[SceneEntity(frame_id=link, id=f"machine/{link}", frame_locked=True, **shapes)
-                                 for link, shapes in by_link.items()])
-
-
-def force_scene(force_n: float, stamp: Timestamp) -> SceneUpdate:
-    """The normal force the work puts on the disk: an arrow from the tool frame's origin along
-    its z (the bead normal), FORCE_SCALE_M_PER_N long per N (none below 0.5 N)."""
-    length = max(force_n, 0.0) * FORCE_SCALE_M_PER_N if math.isfinite(force_n) else 0.0
-    arrows = [ArrowPrimitive(pose=Pose(position=Vector3(x=0.0, y=0.0, z=0.0),
-                                       orientation=Quaternion(x=0.0, y=-math.sqrt(0.5), z=0.0, w=math.sqrt(0.5))),
-                             shaft_length=length * 0.8, shaft_diameter=0.004, head_length=length * 0.2,
-                             head_diameter=0.01, color=Color(r=0.2, g=0.8, b=1.0, a=1.0))] if length >= 5e-4 else []
-    return SceneUpdate(entities=[SceneEntity(timestamp=stamp, frame_id="tool", id="force", frame_locked=True,
-                                             arrows=arrows)])
-
-
-def bead_scene(contour: Contour, first: Contour | None, stamp: Timestamp) -> SceneUpdate:
-    """The contour (orange), the parent surface (grey) and the bead as first scanned (faint),
-    in the bead frame (x along, z up; m)."""
-    def line(x_mm, z_mm, rgba, thickness):  # at most MAX_OUTLINE_POINTS vertices, the ends kept
-        keep = spaced_indices(len(x_mm), MAX_OUTLINE_POINTS)
-        return LinePrimitive(thickness=thickness, scale_invariant=True, color=Color(r=rgba[0], g=rgba[1], b=rgba[2],
-                                                                                    a=rgba[3]),
-                             points=[Point3(x=x_mm[i] * MM, y=0.0, z=z_mm[i] * MM) for i in keep])
-    parent = list(contour.parent_mm) or [0.0] * len(contour.x_mm)
-    # heights are above the parent surface's datum: the contour drawn on top of the parent
-    lines = [line(contour.x_mm, [z + p for z, p in zip(contour.z_mm, parent)], (1.0, 0.55, 0.1, 1.0), 3.0),
-             line(contour.x_mm, parent, (0.6, 0.6, 0.6, 1.0), 2.0)]
-    if first is not None:
-        first_parent = list(first.parent_mm) or [0.0] * len(first.x_mm)
-        lines.append(line(first.x_mm, [z + p for z, p in zip(first.z_mm, first_parent)], (1.0, 1.0, 1.0, 0.35), 1.0))
-    return SceneUpdate(entities=[SceneEntity(timestamp=stamp, frame_id="bead", id="bead", frame_locked=True,
-                                             lines=lines)])
 
 
 class FoxgloveView(Node):
@@ -234,16 +147,16 @@ class FoxgloveView(Node):
             return
         for k in spaced_indices(len(msg.time_s), MAX_OUTLINE_POINTS).tolist():  # a plot's worth a batch
             time_s = msg.time_s[k]
-            ns = _ns(time_s)
+            ns = seconds_to_ns(time_s)
             header = {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": "tool"}
             for channel, forces in ((self.wrench, msg.measured_force_n), (self.true_wrench, msg.true_force_n)):
                 if k < len(forces):
-                    channel.log({"header": header, "wrench": {"force": {"x": 0.0, "y": 0.0, "z": _finite(forces[k])},
-                                                              "torque": {"x": 0.0, "y": 0.0, "z": 0.0}}},
-                                log_time=ns)
+                    wrench = {"force": {"x": 0.0, "y": 0.0, "z": json_number(forces[k])},
+                              "torque": {"x": 0.0, "y": 0.0, "z": 0.0}}
+                    channel.log({"header": header, "wrench": wrench}, log_time=ns)
             self.time_ns = max(self.time_ns, ns)
         if msg.time_s and msg.measured_force_n:
-            ns = _ns(msg.time_s[-1])
+            ns = seconds_to_ns(msg.time_s[-1])
             self.force.log(force_scene(msg.measured_force_n[-1], Timestamp(sec=ns // 1_000_000_000,
                                                                           nsec=ns % 1_000_000_000)), log_time=ns)
 
@@ -274,17 +187,18 @@ class FoxgloveView(Node):
         if msg.stop:
             return
         self._row(msg.job_id, msg.pass_index).update({
-            "X_mm": _finite(msg.material_remaining_mm), "t_left_s": _finite(msg.time_remaining_s),
-            "K1_J_mm3": _finite(msg.specific_energy_j_mm3), "cut_planned_mm": _finite(msg.cut_depth_mm),
-            "F_N": _finite(msg.normal_force_n), "V_f_mm_s": _finite(msg.feed_speed_mm_s),
-            "J": _finite(msg.expected_penalty)})
+            "X_mm": json_number(msg.material_remaining_mm), "t_left_s": json_number(msg.time_remaining_s),
+            "K1_J_mm3": json_number(msg.specific_energy_j_mm3), "cut_planned_mm": json_number(msg.cut_depth_mm),
+            "F_N": json_number(msg.normal_force_n), "V_f_mm_s": json_number(msg.feed_speed_mm_s),
+            "J": json_number(msg.expected_penalty)})
         self._log_table()
 
     def _on_result(self, msg: PassResult) -> None:
         self._row(msg.job_id, msg.pass_index).update({
-            "status": STATUS.get(msg.status, str(msg.status)), "cut_measured_mm": _finite(msg.measured_cut_depth_mm),
-            "duration_s": _finite(msg.duration_s), "mean_force_n": _finite(msg.mean_normal_force_n),
-            "K1_measured_J_mm3": _finite(msg.specific_energy_j_mm3), "burn": bool(msg.burn_detected),
+            "status": STATUS.get(msg.status, str(msg.status)),
+            "cut_measured_mm": json_number(msg.measured_cut_depth_mm),
+            "duration_s": json_number(msg.duration_s), "mean_force_n": json_number(msg.mean_normal_force_n),
+            "K1_measured_J_mm3": json_number(msg.specific_energy_j_mm3), "burn": bool(msg.burn_detected),
             "stall": bool(msg.stall_detected)})
         self._log_table()
 
