@@ -1,6 +1,7 @@
 """``hexctl demo`` and a campaign's cell: calibrate t_R, run seeded jobs on fresh graphs
 (:func:`hex_control.ros.app.grind_job.run_job`), write each job's report and, for several,
-the statistics."""
+the statistics. Each run's options are stored in its directory (``run_files.RUN_FILE``)
+when it starts: ``--resume`` takes them up (its seed), and refuses one given that differs."""
 
 from __future__ import annotations
 
