@@ -72,7 +72,7 @@ UPSTREAM = [  # inputs of the planners, the controller, the shaper and kinematic
     ("/plant/wrench", WrenchStamped, 100, "/plant"), ("/motion/setpoint_raw", PoseStamped, 100, None),
     ("/motion/setpoint", PoseStamped, 100, "/input_shaper"),
     ("/load_predictor/force/prediction", LoadPrediction, 10, "/load_predictor/force"),
-    ("/load_predictor/pass/prediction", LoadPrediction, 10, "/load_predictor/pass"),
+    ("/load_predictor/pass/prediction", LoadPrediction, LATCHED, "/load_predictor/pass"),  # latched, as its own
     ("/pass_planner/status", DiagnosticStatus, LATCHED, "/pass_planner"),
     ("/motion/tool_path_raw", ToolPath, LATCHED, "/pass_planner"),
     ("/motion/tool_path", ToolPath, LATCHED, "/input_shaper")]

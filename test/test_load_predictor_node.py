@@ -265,7 +265,7 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
 
 
 def test_a_relative_input_resolves_in_the_node_or_its_parent_namespace():
-    from hex_control.ros.nodes.load_predictor import input_topic_name
+    from hex_control.ros.infra.message_info import input_topic_name
 
     assert input_topic_name("grinding/pass_result", "node", "/cell2/load_predictor") == "grinding/pass_result"
     assert input_topic_name("grinding/pass_result", "parent", "/cell2/load_predictor") == "/cell2/grinding/pass_result"

@@ -270,7 +270,7 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path
     ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: commands.update(
         {c.pass_index: c}), RESULTS)  # depth 10: keep them all
     k1_node = predictor_node(ros)
-    k1 = k1_node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    k1 = k1_node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", LATCHED)
     ros.wait_for_match(k1_node, "/load_predictor/pass/prediction", subscribers=1)
     send(ros, GrindBead.Goal(job_id="bead3", bead_height_mm=1.9, bead_width_mm=12.5,
                              bead_length_mm=300.0, deadline_s=120.0, process_yaml="reset_time_s: 5.0"))
@@ -302,6 +302,38 @@ def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path
         assert c.cut_depth_mm < 0.9 * float(PROCESS.cut_depth_mm(c.normal_force_n, c.feed_speed_mm_s))
 
 
+def test_a_planner_restarted_after_the_prediction_was_sent_decides_with_it_at_once(ros, planner):
+    """The planner dies with pass 0 in flight; pass 0's result and its K1 prediction come
+    while it is down. The restarted planner has both (the predictor keeps its last
+    prediction, as config/load_predictor.yaml's pass predictor does) and commands pass 1 with
+    that K1 at once: before, it waited prediction_stall_s (600 s here) for a prediction that
+    had gone out before it subscribed."""
+    first = planner("-p", "prediction_stall_s:=600.0")
+    executor = PassExecutor(ros)
+    executor.hold_from = 0  # the test answers pass 0 itself, while the planner is down
+    predictions = predictor_node(ros).create_publisher(LoadPrediction, "/load_predictor/pass/prediction", LATCHED)
+    commands = {}
+    ros.node("command_listener").create_subscription(PassCommand, "/grinding/pass_command", lambda c: commands.update(
+        {c.pass_index: c}), RESULTS)
+    send(ros, GrindBead.Goal(job_id="bead9", bead_height_mm=1.5, bead_width_mm=12.5, bead_length_mm=300.0,
+                             deadline_s=120.0))
+    wait_until(lambda: 0 in commands, 15.0, what="pass 0 commanded")
+    first.process.send_signal(signal.SIGKILL)
+    first.process.wait()
+    command = commands[0]
+    result = PassResult(job_id="bead9", pass_index=0, status=PassResult.COMPLETED,
+                        measured_cut_depth_mm=command.cut_depth_mm,
+                        removed_volume_mm3=command.cut_depth_mm * 12.5 * 300.0,
+                        duration_s=command.pass_duration_s, feed_speed_mm_s=command.feed_speed_mm_s,
+                        specific_energy_j_mm3=11.0)
+    result.header.stamp.sec = 10
+    executor.publisher.publish(result)
+    predictions.publish(LoadPrediction(header=result.header, quantity="specific_energy_j_mm3", prediction=11.5))
+    planner("-p", "prediction_stall_s:=600.0")  # same job_dir: resumes with pass 0 in flight
+    wait_until(lambda: 1 in commands, 30.0, what="pass 1 commanded by the restarted planner")
+    assert commands[1].specific_energy_j_mm3 == 11.5
+
+
 def test_each_pass_is_planned_with_the_k1_predicted_from_the_pass_before(ros, planner):
     """The pass-rate predictor answers each pass result 0.5 s later (a slow predictor): the
     planner waits for it, so pass k+1 is cut with the prediction from pass k, every time,
@@ -310,7 +342,7 @@ def test_each_pass_is_planned_with_the_k1_predicted_from_the_pass_before(ros, pl
     executor = PassExecutor(ros)
     executor.specific_energy_j_mm3 = 11.0
     node = predictor_node(ros)
-    predictions = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    predictions = node.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", LATCHED)
 
     def predict(result: PassResult) -> None:  # K1 11.5, 12, 12.5 ... after passes 0, 1, 2 ...
         k1 = 11.5 + 0.5 * result.pass_index
@@ -342,7 +374,7 @@ def test_another_process_on_the_prediction_topic_does_not_hold_the_decisions(ros
     executor = PassExecutor(ros)
     executor.specific_energy_j_mm3 = 11.0
     rogue = ros.node("rogue")
-    forged = rogue.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", 10)
+    forged = rogue.create_publisher(LoadPrediction, "/load_predictor/pass/prediction", LATCHED)
     rogue.create_subscription(PassResult, "/grinding/pass_result", lambda r: forged.publish(LoadPrediction(
         header=r.header, quantity="specific_energy_j_mm3", prediction=30.0)), RESULTS)
     commands = {}

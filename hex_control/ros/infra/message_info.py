@@ -14,6 +14,8 @@ from __future__ import annotations
 import inspect
 import time
 
+from rclpy.qos import DurabilityPolicy
+
 from hex_control.ros.infra.runtime import wall_timer
 from hex_control.safety.command_owner import CommandOwner, OwnedInput, resolve_owner_nodes
 
@@ -57,12 +59,28 @@ class LostMessages:
         return 0 if last is None or sequence <= last else sequence - last - 1
 
 
-def owner_publishes(node, topic: str, owner_node: str) -> bool:
-    """Does ``owner_node`` (resolved as ``info_subscription``'s owners are) publish ``topic``?
-    Liveness by the graph that another process on the topic cannot fake."""
+def owner_publishes(node, topic: str, owner_node: str, *, latched: bool = False) -> bool:
+    """Does ``owner_node`` (resolved as ``info_subscription``'s owners are) publish ``topic``
+    (with ``latched``, keeping its last message for late joiners: what a transient-local
+    reader matches)? Liveness by the graph that another process on the topic cannot fake."""
     [owner] = resolve_owner_nodes(owner_node, node.get_namespace())
     return any(f"{info.node_namespace.rstrip('/')}/{info.node_name}" == owner
+               and (not latched or info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL)
                for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic)))
+
+
+def input_topic_name(topic: str, relative_to: str, namespace: str) -> str:
+    """The name to subscribe ``topic`` by: as given (ROS resolves a relative name in the node's
+    ``namespace``), or with ``relative_to`` 'parent' a relative name made absolute in the
+    namespace that holds ``namespace`` (/cell2/load_predictor -> /cell2/<topic>; the root's
+    parent is the root). ValueError for a private (~) name there: it has no parent reading."""
+    if relative_to == "node" or topic.startswith("/"):
+        return topic
+    if relative_to != "parent":
+        raise ValueError(f"input_namespace {relative_to!r} is not 'node' or 'parent'")
+    if topic.startswith("~"):
+        raise ValueError(f"input_topic {topic!r} is private to the node: input_namespace 'parent' cannot place it")
+    return namespace.rstrip("/").rpartition("/")[0] + "/" + topic
 
 
 def info_subscription(node, msg_type, topic: str, callback, qos, *, diagnostics, name: str,

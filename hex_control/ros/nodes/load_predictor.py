@@ -10,7 +10,8 @@ Topics:
                   in the one holding it (the cell, for a predictor run under <cell>/load_predictor);
                   only from ``input_owner`` if set (e.g. the plant: a forged pass result does
                   not move the K1 the sequence planner plans with)
-    ~/prediction  hex_control_msgs/LoadPrediction  out  prediction of the next sample
+    ~/prediction  hex_control_msgs/LoadPrediction  out  prediction of the next sample (with
+                  ``latched``, the last kept for late joiners)
     /diagnostics  diagnostic_msgs/DiagnosticArray  out  counters, model, warnings
 
 The behaviour is :class:`hex_control.estimation.load_predictor.LoadPredictorCore`; this
@@ -34,7 +35,8 @@ from rclpy.parameter import Parameter
 from hex_control.estimation.load_predictor import MODEL_VALUES, LoadPredictorCore, LoadPredictorSettings, Outcome
 from hex_control.grinding.config import cell_value
 from hex_control.ros.infra.diagnostics import Diagnostics
-from hex_control.ros.infra.message_info import info_subscription
+from hex_control.ros.infra.interfaces import LATCHED
+from hex_control.ros.infra.message_info import info_subscription, input_topic_name
 from hex_control.ros.infra.messages import check_numeric_field, get_field, message_class
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
@@ -76,22 +78,10 @@ PARAMETERS = {
     "valid_min": Spec(D.valid_min, "measurements below this are rejected (load unit)", -1e12, 1e12),
     "valid_max": Spec(D.valid_max, "measurements above this are rejected (load unit)", -1e12, 1e12),
     "qos_depth": Spec(100, "history depth of the input and output streams (samples)", 1, 10_000),
+    "latched": Spec(False, "keep the last prediction for a late joiner (transient local, depth 1): the pass "
+                    "rate's, so that a sequence planner restarted mid-job has the K1 of the pass it resumes after"),
     "diagnostics_period_s": Spec(1.0, "period of /diagnostics (s)", 0.01, 60.0),
 }
-
-
-def input_topic_name(topic: str, relative_to: str, namespace: str) -> str:
-    """The name to subscribe ``topic`` by: as given (ROS resolves a relative name in the node's
-    ``namespace``), or with ``relative_to`` 'parent' a relative name made absolute in the
-    namespace that holds ``namespace`` (/cell2/load_predictor -> /cell2/<topic>; the root's
-    parent is the root). ValueError for a private (~) name there: it has no parent reading."""
-    if relative_to == "node" or topic.startswith("/"):
-        return topic
-    if relative_to != "parent":
-        raise ValueError(f"input_namespace {relative_to!r} is not 'node' or 'parent'")
-    if topic.startswith("~"):
-        raise ValueError(f"input_topic {topic!r} is private to the node: input_namespace 'parent' cannot place it")
-    return namespace.rstrip("/").rpartition("/")[0] + "/" + topic
 
 
 class LoadPredictorNode(Node):
@@ -117,7 +107,8 @@ class LoadPredictorNode(Node):
             self.diagnostics.set(key, value)
 
         depth = p("qos_depth").value
-        self._publisher = self.create_publisher(LoadPrediction, "~/prediction", depth)
+        self._publisher = self.create_publisher(LoadPrediction, "~/prediction",
+                                                LATCHED if p("latched").value else depth)
         relative_to = p("input_namespace").value
         self.input_topic = input_topic_name(p("input_topic").value, relative_to, self.get_namespace())
         owners = [input_topic_name(name.strip(), relative_to, self.get_namespace())

@@ -71,7 +71,7 @@ class SequencePlannerNode(Node):
         self.core = Sequencer(self._settings(), config, health=self.diagnostics,
                               log=lambda level, text: getattr(self.get_logger(), level)(text),
                               predictor_heard=lambda: owner_publishes(self, "load_predictor/pass/prediction",
-                                                                      "load_predictor/pass"))
+                                                                      "load_predictor/pass", latched=True))
         self.add_post_set_parameters_callback(lambda _: setattr(self.core, "settings", self._settings()))
         self.results, self.solving = {}, None  # goal uuid -> its Result; the Future of the policy being solved
         self.command_pub = self.create_publisher(PassCommand, "grinding/pass_command", LATCHED)
@@ -90,7 +90,7 @@ class SequencePlannerNode(Node):
                 (DiagnosticStatus, "pass_planner/status", lambda m: core.on_pass_planner_status(*_status(m), now()),
                  LATCHED, "pass_planner_status", "pass_planner"),
                 (LoadPrediction, "load_predictor/pass/prediction", lambda m: core.on_prediction(
-                    m.prediction, _ns(m.header.stamp), now()), 10, "prediction", "load_predictor/pass"),
+                    m.prediction, _ns(m.header.stamp), now()), RESULTS, "prediction", "load_predictor/pass"),
                 (ForceTrajectory, "grinding/force_trajectory", lambda m: core.on_trajectory(
                     m.job_id, m.pass_index, m.normal_force_n, m.planned_cut_depth_mm), LATCHED, "trajectory",
                  "pass_planner")):
