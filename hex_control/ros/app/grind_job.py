@@ -136,8 +136,12 @@ class JobSession:
         try:
             if self.recorder is not None:
                 self.recorder.close()
-            self.executor.remove_node(self.observer)
-            self.observer.destroy_node()
+            # every node on the session's executor (the observer, and any a caller added: a test's
+            # impostors), destroyed before the context: a node left to the garbage collector keeps
+            # its DDS participant, and its latched messages reach the next graph in the domain
+            for node in self.executor.get_nodes():
+                self.executor.remove_node(node)
+                node.destroy_node()
             self.executor.shutdown()
             self.context.try_shutdown()
         finally:  # the nodes run in sessions of their own: nothing else would stop them
