@@ -158,6 +158,6 @@ def test_shaping_the_reset_move_shortens_the_reset_time():
 
 def test_the_demo_says_how_many_fastest_passes_the_shaper_fits():
     reset = {"unshaped": ResetTime(6.12, 9.0, 1.61, 0.028), "zvd": ResetTime(4.71, 9.2, 0.0, 0.0)}
-    lines = reset_time_lines(reset, 150.0, 45.0)  # a pass at 75 mm/s: 2 s + t_R
+    lines = reset_time_lines(reset, 150.0, 45.0)  # a pass at the cell's 75 mm/s: 2 s + t_R
     assert lines[0] == "reset time t_R (unshaped): 6.12 s (settle 1.61 s after the path, peak deflection 0.028 mm)"
     assert lines[-1] == "shaping buys 1.41 s a pass: 5 -> 6 fastest passes fit in 45 s"  # 45 // 8.12, 45 // 6.71

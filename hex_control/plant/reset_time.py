@@ -110,10 +110,13 @@ def calibrate_reset_time(bead_length_mm: float, feed_mm_s: float = 20.0,
 
 def reset_time_lines(reset: dict, bead_length_mm: float, deadline_s: float) -> list[str]:
     """What :func:`calibrate_reset_time`'s ``reset`` means for a job: each t_R, and how many of
-    the fastest passes (75 mm/s, the pass planner's top feed) fit in ``deadline_s`` with and without the shaper."""
+    the fastest passes (at the cell's ``process.feed_max_mm_s``) fit in ``deadline_s`` with and
+    without the shaper."""
+    from hex_control.config import cell_configuration
+
     lines = [f"reset time t_R ({name}): {r.reset_time_s:.2f} s (settle {r.settle_s:.2f} s after the path, "
              f"peak deflection {r.peak_deflection_mm:.3f} mm)" for name, r in reset.items()]
-    shortest = bead_length_mm / 75.0
+    shortest = bead_length_mm / cell_configuration().value("process.feed_max_mm_s")
     unshaped, shaped = reset["unshaped"].reset_time_s, reset["zvd"].reset_time_s
     lines.append(f"shaping buys {unshaped - shaped:.2f} s a pass: {int(deadline_s // (shortest + unshaped))} -> "
                  f"{int(deadline_s // (shortest + shaped))} fastest passes fit in {deadline_s:g} s")
