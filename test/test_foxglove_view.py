@@ -115,7 +115,7 @@ def test_an_enormous_contour_or_batch_is_refused_and_a_long_contour_drawn_bounde
     view._on_telemetry(PlantTelemetry(time_s=[1.0, math.nan], measured_force_n=[1.0, 2.0]))  # it ended the view
     view._on_telemetry(PlantTelemetry(time_s=[math.inf], measured_force_n=[1.0]))
     assert view.diagnostics.counters["rejected_contour"] == 2 and view.diagnostics.counters["rejected_telemetry"] == 3
-    assert view.last_contour is None and view.diagnostics.summary()[1].count("refused") == 2
+    assert view.state.last_contour is None and view.diagnostics.summary()[1].count("refused") == 2
     x = [60.0 * i / 49_999 for i in range(50_000)]
     view._on_contour(Contour(x_mm=x, z_mm=[0.5] * len(x)))
     view._on_telemetry(PlantTelemetry(time_s=[0.001 * k for k in range(5000)], measured_force_n=[1.0] * 5000))

@@ -1,5 +1,5 @@
 """hexctl view: the running cell in Foxglove, over the Foxglove WebSocket protocol
-(hex_control/ros/app/foxglove_view.py). rclpy and foxglove-sdk load only inside the verb."""
+(hex_control/ros/app/foxglove_server.py). rclpy and foxglove-sdk load only inside the verb."""
 
 from __future__ import annotations
 
@@ -26,6 +26,6 @@ def _view(args) -> int:
     if not args.host.strip():
         raise ValueError("--host must name an address, e.g. 127.0.0.1")
     namespace = validated_namespace(args.namespace)
-    from hex_control.ros.app.foxglove_view import serve
+    from hex_control.ros.app.foxglove_server import serve
 
     return serve(args.host, args.port, namespace, duration_s=args.duration)

@@ -45,19 +45,14 @@ TABLE_SCHEMA = {"type": "object", "title": "hex_control/PassTable", "properties"
 FORCE_SCALE_M_PER_N = 1e-3  # the force arrow: 1 mm per N (60 N, F_max, is 60 mm)
 
 
-def seconds_to_ns(seconds: float) -> int:
-    """A sim time (s) in ns; a negative one as 0."""
-    return max(0, round(seconds * 1e9))
+def ns_timestamp(ns: int) -> Timestamp:
+    """A sim time in ns as Foxglove's stamp."""
+    return Timestamp(sec=ns // 1_000_000_000, nsec=ns % 1_000_000_000)
 
 
 def timestamp(stamp) -> Timestamp:
     """A ROS stamp (builtin_interfaces/Time) as Foxglove's."""
     return Timestamp(sec=int(stamp.sec), nsec=int(stamp.nanosec))
-
-
-def json_number(value: float):
-    """JSON has no NaN: None instead."""
-    return float(value) if math.isfinite(value) else None
 
 
 def frame_transforms(msg: TFMessage) -> FrameTransforms:
@@ -118,3 +113,9 @@ def bead_scene(contour: Contour, first: Contour | None, stamp: Timestamp) -> Sce
         lines.append(line(first.x_mm, [z + p for z, p in zip(first.z_mm, first_parent)], (1.0, 1.0, 1.0, 0.35), 1.0))
     return SceneUpdate(entities=[SceneEntity(timestamp=stamp, frame_id="bead", id="bead", frame_locked=True,
                                              lines=lines)])
+
+
+def wrench_json(ns: int, force_n: float | None) -> dict:
+    """A normal force (N, along the tool's z) as a geometry_msgs/WrenchStamped-shaped JSON message."""
+    return {"header": {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": "tool"},
+            "wrench": {"force": {"x": 0.0, "y": 0.0, "z": force_n}, "torque": {"x": 0.0, "y": 0.0, "z": 0.0}}}
