@@ -512,3 +512,14 @@ def test_settings_from_the_nodes_parameters_take_0_as_the_configured_cut_model()
     assert settings == dataclasses.replace(defaults, k1_estimate_cv=None) and isinstance(settings.job_dir, Path)
     assert SequencerSettings.from_parameters(lambda name: str(defaults.job_dir) if name == "job_dir"
                                              else getattr(defaults, name)) == defaults
+
+
+def test_the_health_report_says_whether_a_k1_predictor_is_heard(tmp_path):
+    """The job session starts a job once the planner hears its predictor (grind_job's
+    wait_until_ready): a planner that had not found it yet decided pass 1 without its K1."""
+    rig = Rig(tmp_path)
+    rig.core.tick(0.0)
+    assert rig.health.values["k1_predictor"] == "none"
+    rig.heard = True
+    rig.core.tick(1.0)
+    assert rig.health.values["k1_predictor"] == "heard"

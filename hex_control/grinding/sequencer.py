@@ -783,8 +783,10 @@ class Sequencer:
 
     # -- watchdog ----------------------------------------------------------------------------
     def tick(self, now_s: float) -> Outputs:
-        """Once a second: the prediction wait, resends, a pass overdue."""
+        """Once a second: the prediction wait, resends, a pass overdue; whether a K1 predictor is
+        heard, on the health report (``k1_predictor``: a job session starts once it is)."""
         out, s = Outputs(), self.settings
+        self.health.set("k1_predictor", "heard" if self.predictor_heard() else "none")
         waited_s = now_s - self._awaited[1] if self._awaited else 0.0
         if waited_s > s.prediction_stall_s or (waited_s > s.prediction_wait_s and not self.predictor_heard()):
             self._awaited = None

@@ -160,12 +160,15 @@ class JobSession:
 
     def wait_until_ready(self) -> None:
         """Spin until the graph can take a goal: the plant's first scan, the control streams
-        matched, the action server answering, the force loop's first state answered.
-        TimeoutError naming what it waited for."""
+        matched, the sequence planner hearing the K1 predictor (a planner that has not found it
+        yet decides the first pass without its prediction: the job would depend on discovery),
+        the action server answering, the force loop's first state answered. TimeoutError
+        naming what it waited for."""
         record, observer = self.record, self.observer
         self.spin_until(lambda: record.contours, 60.0, "the plant's first scan")
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
+        self.spin_until(lambda: observer.planner_hears_predictor, 60.0, "the sequence planner to hear the K1 predictor")
         probe = ResponseProbe(observer.client)
         try:
             self.spin_until(probe, 60.0, "the sequence planner's action server to answer")

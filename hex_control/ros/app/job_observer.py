@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 from collections import Counter
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.action import ActionClient
 from rclpy.node import Node
 
@@ -70,10 +71,14 @@ class JobObserver(Node):
                 (LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM, "load_predictor/pass")):
             info_subscription(self, msg_type, topic, callback, qos, diagnostics=_Tally(self.refused), name=topic,
                               owner_node=owner, wait_depth=KEPT_WHILE_UNNAMED)
+        # the planner's own health report (every node's shares /diagnostics: theirs are not refusals)
+        info_subscription(self, DiagnosticArray, "/diagnostics", self._on_planner_health, 10,
+                          diagnostics=_Tally(Counter()), name="diagnostics", owner_node="sequence_planner")
         self.job_id = None  # the job whose messages are recorded
         self.job_result = None
         self.foreign_messages = 0
         self.telemetry_arrivals = None  # a list to get (wall s, sim s of the last sample) per batch (hexctl bench)
+        self.planner_hears_predictor = False  # the sequence planner's own word (its k1_predictor)
 
     def destroy_node(self) -> None:
         # rclpy's destroy_node leaves waitables: the action client would keep the node and its
@@ -138,6 +143,11 @@ class JobObserver(Node):
 
     def _on_k1(self, msg: LoadPrediction) -> None:
         self.record.k1_predictions.append((stamp_s(msg.header.stamp), msg.prediction, msg.drift_probability))
+
+    def _on_planner_health(self, msg: DiagnosticArray) -> None:
+        values = [kv.value for status in msg.status for kv in status.values if kv.key == "k1_predictor"]
+        if values:
+            self.planner_hears_predictor = values[-1] == "heard"
 
     def _on_job_result(self, msg) -> None:
         if self.job_id is not None:
