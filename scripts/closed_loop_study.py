@@ -12,6 +12,8 @@ the K1 sequences the grid's seeds 200-202 drew it reproduces their jobs' charges
 
     python scripts/closed_loop_study.py --jobs 400 --cells 1.0/60 1.2/60            # the planner's model
     python scripts/closed_loop_study.py --jobs 400 --cells 1.0/60 --thesis-model    # c1, shifted Rayleigh
+    python scripts/closed_loop_study.py --before --replay-seeds 300 301 302 303 304 # the code before issue 42
+    python scripts/closed_loop_study.py --jobs 300 --row-groups 60 --cells 1.0/45 1.0/60 1.0/90
 
 Units: mm, s, N, J/mm^3.
 """
@@ -89,46 +91,73 @@ def main(argv=None) -> int:
     parser.add_argument("--jobs", type=int, default=400)
     parser.add_argument("--cells", nargs="+", default=["1.0/60"], help="bead height mm / deadline s")
     parser.add_argument("--thesis-model", action="store_true", help="solve with the configured cut model")
+    parser.add_argument("--before", action="store_true",
+                        help="the planner before issue 42: the configured cut model from the configured F_max "
+                             "(60 N) until the first plan's force is learned")
     parser.add_argument("--estimate-cv", type=float, default=K1_ESTIMATE_CV)
+    parser.add_argument("--row-groups", type=int, default=0,
+                        help="also the charge / J of the cells pooled (a bead row) over this many groups of five "
+                             "consecutive seeds, as the grid's five seeds give it (needs --jobs >= 5 x groups)")
     parser.add_argument("--replay-seeds", type=int, nargs="*", default=[],
                         help="also each job of these campaign seeds, from the K1 the plant draws for them")
     args = parser.parse_args(argv)
     if not 1 <= args.jobs <= 100_000:
         print("--jobs must be in [1, 100000]", file=sys.stderr)
         return 2
-    model, factor = (MODEL, 1.0) if args.thesis_model else planned_on_estimate(MODEL, args.estimate_cv)
+    if not 0 <= 5 * args.row_groups <= args.jobs:
+        print("--row-groups must be in [0, jobs / 5]", file=sys.stderr)
+        return 2
+    thesis = args.thesis_model or args.before
+    model, factor = (MODEL, 1.0) if thesis else planned_on_estimate(MODEL, args.estimate_cv)
     print(f"model {model}, mean factor {factor:.4f}")
     print("| bead mm | deadline s | J at start | mean charge (jobs) | charge / J | overgrind part | P(X < 0) | "
           "median | seeds 200-202's K1: mean charge, / J |")
     print("|---|---|---|---|---|---|---|---|---|")
+    row_j, row_charges, replays = [], [], []
     for cell in args.cells:
         height, deadline = (float(v) for v in cell.split("/"))
-        bead = weld_bead(150.0, height, 12.0, ripple_mm=0.05, seed=0)
-        profile = Profile(bead.x_mm, bead.z_mm, bead.parent_mm)
-        x0 = profile.mean_mm
-        feeds = build_controls(JOB, GRID.covering(deadline, x0), MODEL).feeds_mm_s
-        prior = prior_force_limit_n(profile, JOB, feeds, PartRule())
+        x0, prior = cell_start(height, deadline, args.before)
+        run = functools.partial(job, deadline_s=deadline, x0=x0, prior_n=prior, model=model, factor=factor)
         j = policy(10.0, round(prior, 2), deadline, x0, model=model, factor=factor).expected_penalty(deadline, x0)
-        runs = np.array([job(s, deadline, x0, prior, model=model, factor=factor)
-                         for s in range(1000, 1000 + args.jobs)])
+        runs = np.array([run(s) for s in range(1000, 1000 + args.jobs)])
         charge, final = runs[:, 0], runs[:, 1]
-        seeds = np.mean([job(s, deadline, x0, prior, model=model, factor=factor, k1s=k1s)[0]
-                         for s, k1s in GRID_SEEDS.items()])
+        seeds = np.mean([run(s, k1s=k1s)[0] for s, k1s in GRID_SEEDS.items()])
         error = charge.std() / math.sqrt(len(charge))
         print(f"| {height:g} | {deadline:g} | {j:.4f} | {charge.mean():.4f} +- {error:.4f} ({len(charge)}) | "
               f"{charge.mean() / j:.2f} | {np.where(final < 0, charge, 0).mean():.4f} | {np.mean(final < 0):.1%} | "
               f"{np.median(charge):.4f} | {seeds:.4f}, {seeds / j:.2f} |", flush=True)
-    for cell in args.cells if args.replay_seeds else []:
-        height, deadline = (float(v) for v in cell.split("/"))
-        bead = weld_bead(150.0, height, 12.0, ripple_mm=0.05, seed=0)
-        profile = Profile(bead.x_mm, bead.z_mm, bead.parent_mm)
-        feeds = build_controls(JOB, GRID.covering(deadline, profile.mean_mm), MODEL).feeds_mm_s
-        prior = prior_force_limit_n(profile, JOB, feeds, PartRule())
-        charges = [job(seed, deadline, profile.mean_mm, prior, model=model, factor=factor, k1s=plant_k1(seed))[0]
-                   for seed in args.replay_seeds]
+        row_j.append(j)
+        row_charges.append(charge)
+        if args.replay_seeds:
+            replays.append((height, deadline, [run(s, k1s=plant_k1(s)) for s in args.replay_seeds]))
+    for height, deadline, jobs in replays:
         print(f"replay {height:g} mm / {deadline:g} s, seeds {args.replay_seeds}: "
-              + " ".join(f"{c:.4f}" for c in charges) + f", mean {np.mean(charges):.4f}", flush=True)
+              + " ".join(f"{c:.4f} (X {x:+.3f}, {n})" for c, x, n in jobs)
+              + f", mean {np.mean([c for c, _, _ in jobs]):.4f}", flush=True)
+    if args.row_groups:
+        print_row_spread(np.array(row_charges), np.mean(row_j), args.row_groups)
     return 0
+
+
+def cell_start(height_mm: float, deadline_s: float, before: bool) -> tuple[float, float]:
+    """(X mm, force limit N) a cell's job starts from: the bead's mean, and the scanned bead's
+    prior force (the configured F_max before issue 42)."""
+    bead = weld_bead(150.0, height_mm, 12.0, ripple_mm=0.05, seed=0)
+    profile = Profile(bead.x_mm, bead.z_mm, bead.parent_mm)
+    if before:
+        return profile.mean_mm, JOB.force_max_n
+    feeds = build_controls(JOB, GRID.covering(deadline_s, profile.mean_mm), MODEL).feeds_mm_s
+    return profile.mean_mm, prior_force_limit_n(profile, JOB, feeds, PartRule())
+
+
+def print_row_spread(charges, mean_j: float, groups: int) -> None:
+    """The spread of a bead row's charge / J (cells x jobs ``charges``, the cells' mean J)
+    over groups of five consecutive seeds: what the grid's five seeds per cell can show."""
+    ratios = np.array([charges[:, 5 * g:5 * g + 5].mean() / mean_j for g in range(groups)])
+    inside = np.mean((ratios >= 1 / 1.5) & (ratios <= 1.5))
+    quantiles = np.quantile(ratios, [0.05, 0.25, 0.5, 0.75, 0.95])
+    print(f"row charge / J over {groups} groups of 5 seeds: all seeds {charges.mean() / mean_j:.2f}; "
+          f"5/25/50/75/95 % {' / '.join(f'{q:.2f}' for q in quantiles)}; within 1.5x either way in {inside:.0%}")
 
 
 def plant_k1(seed: int, passes: int = 20) -> list[float]:
