@@ -8,7 +8,7 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from hex_control.config import config_file
-from hex_control.kinematics.rotation import rotation_matrix
+from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 from hex_control.kinematics.segments import segment_distance
 from hex_control.kinematics.stewart import (
     ForwardKinematicsError,
@@ -43,6 +43,17 @@ def test_rotation_is_roll_then_pitch_then_yaw_about_fixed_axes():
     angles = np.random.default_rng(0).uniform(-np.pi, np.pi, (50, 3))
     expected = Rotation.from_euler("xyz", angles).as_matrix()
     np.testing.assert_allclose(rotation_matrix(*angles.T), expected, atol=1e-14)
+
+
+def test_rotation_derivatives_match_central_differences():
+    """dR/droll, dR/dpitch, dR/dyaw (the 3-PRU head's dynamics use them) to 1e-9."""
+    angles, h = np.random.default_rng(1).uniform(-np.pi, np.pi, (50, 3)), 1e-6
+    derivatives = rotation_derivatives(*angles.T)
+    for k, derivative in enumerate(derivatives):
+        step = np.eye(3)[k] * h
+        central = (rotation_matrix(*(angles + step).T) - rotation_matrix(*(angles - step).T)) / (2 * h)
+        np.testing.assert_allclose(derivative, central, atol=1e-9)
+    assert rotation_derivatives(0.1, 0.2, 0.3)[2].shape == (3, 3)
 
 
 @pytest.mark.parametrize("step_deg, seed_sectors, seed_error_pct, tolerance", [

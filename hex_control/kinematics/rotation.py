@@ -23,14 +23,13 @@ def _axis_matrices(angle, axis: int):
 def _axis_derivatives(angle, axis: int):
     """d/d(angle) of the elementary rotation about ``axis``."""
     c, s = np.cos(angle), np.sin(angle)
-    zero = np.zeros_like(c)
-    if axis == 0:
-        rows = ((zero, zero, zero), (zero, -s, -c), (zero, c, -s))
-    elif axis == 1:
-        rows = ((-s, zero, c), (zero, zero, zero), (-c, zero, -s))
-    else:
-        rows = ((-s, -c, zero), (c, -s, zero), (zero, zero, zero))
-    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+    out = np.zeros(np.shape(c) + (3, 3))
+    i, j = [k for k in range(3) if k != axis]
+    out[..., i, i] = out[..., j, j] = -s
+    # entry by entry: the derivative's is the rotation's with (c, s) -> (-s, c); np.stack
+    # per row cost a fifth of the 3-PRU head's dynamics
+    out[..., i, j], out[..., j, i] = (c, -c) if axis == 1 else (-c, c)
+    return out
 
 
 def rotation_matrix(roll, pitch, yaw) -> np.ndarray:
