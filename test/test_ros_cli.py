@@ -169,9 +169,6 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE, durability
 #: varies with the machine's load, 0.3 s idle to several s at a load of 15 on 2 cores. 20
 #: tries of the whole process, idle and beside two CPU burners: hexctl bench topic_tools
 ECHO_BOUND_S = 2.0
-#: without the daemon, within one Fast DDS announcement period (3 s) more: a participant that
-#: does not answer a new one's start-up announcements is found at its next one (about 1 of 4)
-ECHO_MISSED_ANNOUNCEMENT_S = ECHO_BOUND_S + 3.0
 TRIES = 3
 NO_DAEMON = {"HEXCTL_NO_DAEMON": "1"}
 
@@ -211,14 +208,16 @@ def test_echo_of_a_latched_topic_returns_at_once_every_time(ros, ros_env, daemon
                            " print(code, 'rclpy' in sys.modules)"], env=ros_env, capture_output=True, text=True,
                           timeout=120)
     assert lean.stdout == "3\n---\n0 False\n", lean
-    # without a daemon: the verb's own node, the same message (a missed announcement allowed for)
-    _whole, _start_up, verb_s, echoed = timed_hexctl(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour",
-                                             "--once", "--field", "z_mm")
+    # without a daemon: the verb's own node, the same message. Subscribed volatile, it would
+    # wait for its --timeout and exit 2. How long it takes is rclpy's import and DDS discovery,
+    # which follow the load (5.4 s at load 12, one announcement period over a bound that held
+    # beside two burners): `hexctl bench topic_tools` reports it, this test does not judge it
+    echoed = hexctl(ros_env | NO_DAEMON, "topic", "echo", "/cli/grinding/contour", "--once", "--field", "z_mm",
+                    "--timeout", "60")
     assert echoed.returncode == 0 and echoed.stdout == "- 0.25\n- 0.5\n---\n", echoed
-    assert verb_s < ECHO_MISSED_ANNOUNCEMENT_S, verb_s
     # --timeout bounds everything: no publisher, or a publisher that never sends, is exit 2
-    # after the bound (the silent one is given long enough to be discovered, see
-    # ECHO_MISSED_ANNOUNCEMENT_S); an echo that ignored it (it once hung 11 min) fails on the
+    # after the bound (the silent one is given 8 s, long enough to be discovered when a Fast
+    # DDS announcement, every 3 s, is missed); an echo that ignored it (it once hung 11 min) fails on the
     # subprocess's own timeout. How soon after the bound it exits is the benchmark's
     # (hexctl bench topic_tools), not this test's: it is Python starting, which follows the load
     for topic, bound_s, why in (
