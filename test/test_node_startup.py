@@ -23,3 +23,14 @@ def test_a_configuration_error_is_one_line_and_exit_2(ros_env):
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["PlantNode: mode must be one of lockstep, realtime; got 'bogus'"]
     assert "Traceback" not in done.stdout + done.stderr
+
+
+def test_the_nodes_that_plan_nothing_start_without_scipy():
+    """Every test graph and campaign cell starts these processes: scipy's special functions and
+    rotations cost the plant 0.2 s of CPU at each start before the planners' models moved to
+    where they are evaluated (hexctl bench graph_starts reports a start's time)."""
+    modules = ["plant", "force_controller", "kinematics", "input_shaper"]
+    probe = ("import sys\n" + "".join(f"import hex_control.ros.nodes.{m}\n" for m in modules)
+             + "print(sorted({k.split('.')[0] for k in sys.modules} & {'scipy', 'filterpy', 'matplotlib'}))")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0 and done.stdout.strip() == "[]", done.stdout + done.stderr

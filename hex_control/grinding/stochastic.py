@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import erf, ndtr, ndtri
 
 from hex_control.grinding.model import GrindingProcess
 
@@ -39,6 +38,14 @@ PDFS = ("normal", "lognormal", "rayleigh")
 SOURCES = ("c1", "c2", "mu", "cut")
 _RAYLEIGH_MEAN = math.sqrt(math.pi / 2)  # mean / sigma_R
 _RAYLEIGH_STD = math.sqrt(2 - math.pi / 2)  # std / sigma_R
+
+
+def _special():
+    """scipy.special, imported where a cut PDF is evaluated: the nodes that only read the
+    configuration (the plant, the robot state) need not start it (0.2 s CPU each)."""
+    from scipy import special
+
+    return special
 
 
 @dataclass(frozen=True)
@@ -77,11 +84,11 @@ class CutDepthModel:
     def ppf(self, mean, std, u):
         """Quantile function of the cut-depth PDF at probabilities u (broadcasting)."""
         if self.pdf == "normal":
-            return mean + std * ndtri(u)
+            return mean + std * _special().ndtri(u)
         if self.pdf == "lognormal":
             safe_mean = np.maximum(mean, 1e-300)
             sigma2 = np.log1p((std / safe_mean) ** 2)
-            nodes = np.exp(np.log(safe_mean) - sigma2 / 2 + np.sqrt(sigma2) * ndtri(u))
+            nodes = np.exp(np.log(safe_mean) - sigma2 / 2 + np.sqrt(sigma2) * _special().ndtri(u))
             return np.where(mean > 0, nodes, 0.0)
         return rayleigh_quantiles(mean, std, u)
 
@@ -96,20 +103,20 @@ class CutDepthModel:
         safe_std = np.where(std > 0, std, 1.0)
         if self.pdf == "normal":
             z = (a - mean) / safe_std
-            value = (a - mean) * ndtr(z) + safe_std * np.exp(-z * z / 2) / math.sqrt(2 * math.pi)
+            value = (a - mean) * _special().ndtr(z) + safe_std * np.exp(-z * z / 2) / math.sqrt(2 * math.pi)
         elif self.pdf == "lognormal":
             # E[(a - delta)+] of a log-normal: the put-option formula
             safe_mean = np.maximum(mean, 1e-300)
             s = np.sqrt(np.log1p((safe_std / safe_mean) ** 2))
             log_a = np.log(np.maximum(a, 1e-300))
             d = (log_a - np.log(safe_mean) + s * s / 2) / s
-            value = np.where(a > 0, a * ndtr(d) - safe_mean * ndtr(d - s), 0.0)
+            value = np.where(a > 0, a * _special().ndtr(d) - safe_mean * _special().ndtr(d - s), 0.0)
             value = np.where(mean > 0, value, certain)
         else:
             sigma, shift = rayleigh_parameters(mean, safe_std)
             r = np.maximum((a - shift) / np.where(sigma > 0, sigma, 1.0), 0.0)
             # integral_0^r (1 - exp(-u^2/2)) du
-            value = sigma * (r - math.sqrt(math.pi / 2) * erf(r / math.sqrt(2)))
+            value = sigma * (r - math.sqrt(math.pi / 2) * _special().erf(r / math.sqrt(2)))
             value = np.where(sigma > 0, value, certain)
         return np.where(std > 0, value, certain)
 

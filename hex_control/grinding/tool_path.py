@@ -22,7 +22,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+
+from hex_control.kinematics.rotation import quaternion_from_rpy
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ class BeadFrame:
 
     @property
     def quaternion_xyzw(self) -> np.ndarray:
-        return Rotation.from_euler("xyz", self.orientation_rpy_deg, degrees=True).as_quat()
+        return quaternion_from_rpy(*np.radians(self.orientation_rpy_deg))
 
 
 @dataclass(frozen=True)
