@@ -1,6 +1,7 @@
 """Stewart-Gough kinematics and workspace (seed 000 part 1, sections 3-5)."""
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -8,7 +9,13 @@ import yaml
 from scipy.spatial.transform import Rotation
 
 from hex_control.config import config_file
-from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
+from hex_control.kinematics.rotation import (
+    matrix_from_quaternion,
+    quaternion_from_rpy,
+    rotation_derivatives,
+    rotation_matrix,
+    rpy_from_matrix,
+)
 from hex_control.kinematics.segments import segment_distance
 from hex_control.kinematics.stewart import (
     ForwardKinematicsError,
@@ -54,6 +61,25 @@ def test_rotation_derivatives_match_central_differences():
         central = (rotation_matrix(*(angles + step).T) - rotation_matrix(*(angles - step).T)) / (2 * h)
         np.testing.assert_allclose(derivative, central, atol=1e-9)
     assert rotation_derivatives(0.1, 0.2, 0.3)[2].shape == (3, 3)
+
+
+def test_quaternion_and_matrix_conversions_are_scipys():
+    """The robot model's conversions (URDF origins, TF, Foxglove scenes) without scipy's
+    Rotation, against it: unnormalized quaternions, and pitch at +-pi/2 where scipy sets yaw 0."""
+    rng = np.random.default_rng(2)
+    for quaternion in rng.normal(size=(200, 4)) * rng.uniform(0.1, 3.0, (200, 1)):
+        np.testing.assert_allclose(matrix_from_quaternion(*quaternion), Rotation.from_quat(quaternion).as_matrix(),
+                                   atol=1e-12)
+    angles = rng.uniform(-np.pi, np.pi, (200, 3)) * [1.0, 0.5, 1.0]
+    for rpy in [*angles, (0.3, np.pi / 2, 0.7), (0.3, -np.pi / 2, 0.7)]:
+        matrix = rotation_matrix(*rpy)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # scipy warns of the gimbal lock
+            expected = Rotation.from_matrix(matrix).as_euler("xyz")
+        np.testing.assert_allclose(rpy_from_matrix(matrix), expected, atol=1e-9)
+        np.testing.assert_allclose(quaternion_from_rpy(*rpy), Rotation.from_euler("xyz", rpy).as_quat(), atol=1e-12)
+    with pytest.raises(ValueError):
+        matrix_from_quaternion(0.0, 0.0, 0.0, 0.0)
 
 
 @pytest.mark.parametrize("step_deg, seed_sectors, seed_error_pct, tolerance", [

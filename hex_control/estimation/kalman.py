@@ -25,7 +25,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 
 from hex_control.estimation.gauss_markov import GaussMarkovModel
 
@@ -229,6 +228,10 @@ class MultiChannelPredictor:
             initial_covariance = solve_discrete_lyapunov(a, w)
         self.mean = np.zeros(m) if mean is None else np.asarray(mean, dtype=float).reshape(m)
         self._initial_covariance = np.atleast_2d(np.asarray(initial_covariance, dtype=float))
+        # imported here: filterpy.kalman's package imports scipy.stats and more, 0.6 s of CPU
+        # at every start of the predictor nodes, which run the scalar filter above
+        from filterpy.kalman import KalmanFilter
+
         self.filter = KalmanFilter(dim_x=m, dim_z=m)
         self.filter.F = a
         self.filter.H = np.eye(m)

@@ -30,12 +30,16 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from hex_control.kinematics import pru3
 from hex_control.kinematics.machine_kind import MachineKind
 from hex_control.kinematics.pru3 import Pru3Geometry
-from hex_control.kinematics.rotation import rotation_matrix
+from hex_control.kinematics.rotation import (
+    matrix_from_quaternion,
+    quaternion_from_rpy,
+    rotation_matrix,
+    rpy_from_matrix,
+)
 from hex_control.kinematics.stewart import StewartGeometry, TrackingForwardKinematics
 
 MM = 1e-3  # m per mm
@@ -54,7 +58,7 @@ class FrameTransform:
     def matrix(self) -> np.ndarray:
         """The homogeneous transform (4, 4), m."""
         out = np.eye(4)
-        out[:3, :3] = Rotation.from_quat(self.rotation_xyzw).as_matrix()
+        out[:3, :3] = matrix_from_quaternion(*self.rotation_xyzw)
         out[:3, 3] = self.translation_m
         return out
 
@@ -177,7 +181,7 @@ class _Urdf:
 
 def _rpy(rotation: np.ndarray) -> tuple[float, float, float]:
     """URDF's fixed-axis roll, pitch, yaw of a rotation matrix (R = Rz Ry Rx)."""
-    return tuple(float(v) for v in Rotation.from_matrix(rotation).as_euler("xyz"))
+    return tuple(float(v) for v in rpy_from_matrix(rotation))
 
 
 def _z_towards(direction) -> np.ndarray:
@@ -460,6 +464,6 @@ def urdf_visuals(text: str) -> list[Visual]:
                 size = (2 * float(shape.get("radius")),) * 3
             else:
                 continue
-            quaternion = tuple(float(v) for v in Rotation.from_euler("xyz", rpy).as_quat())
+            quaternion = tuple(float(v) for v in quaternion_from_rpy(*rpy))
             visuals.append(Visual(link.get("name"), shape.tag, size, xyz, quaternion, rgba))
     return visuals

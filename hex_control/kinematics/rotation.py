@@ -61,3 +61,25 @@ def quaternion_from_rpy(roll, pitch, yaw) -> np.ndarray:
     cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
     return np.array([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
                      cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy], float)
+
+
+def matrix_from_quaternion(x, y, z, w) -> np.ndarray:
+    """The rotation matrix (3, 3) of a quaternion (x, y, z, w), normalized first."""
+    q = np.array([x, y, z, w], float)
+    norm = np.linalg.norm(q)
+    if not np.isfinite(norm) or norm == 0:
+        raise ValueError(f"a quaternion needs a finite, nonzero norm: {q}")
+    x, y, z, w = q / norm
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def rpy_from_matrix(rotation) -> np.ndarray:
+    """(roll, pitch, yaw) rad of R = R_z(yaw) R_y(pitch) R_x(roll). At pitch = +-pi/2 only
+    roll - yaw (or roll + yaw) is defined: yaw is then 0, as scipy's ``as_euler`` chooses."""
+    r = np.asarray(rotation, float)
+    pitch = np.arcsin(np.clip(-r[2, 0], -1.0, 1.0))
+    if abs(r[2, 0]) > 1 - 1e-12:
+        return np.array([np.arctan2(-r[2, 0] * r[0, 1], r[1, 1]), pitch, 0.0])
+    return np.array([np.arctan2(r[2, 1], r[2, 2]), pitch, np.arctan2(r[1, 0], r[0, 0])])
