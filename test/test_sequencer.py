@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +28,7 @@ from hex_control.grinding.sequencer import (
     PassReport,
     Sequencer,
     SequencerSettings,
+    SolveAbandoned,
     contour_height_mm,
 )
 from hex_control.grinding.stochastic import CutDepthModel
@@ -286,7 +288,10 @@ def test_cancel_during_the_solve_and_during_the_job(tmp_path):
     cancelled = rig.core.cancel("g1")
     assert cancelled.finished[0] == "g1" and cancelled.finished[1]["reason"] == "cancelled"
     assert "policy was solved" in cancelled.finished[1]["message"]
-    rig.do(rig.core.on_solved(rig.core.solve(out.solve), 0.0))  # the policy, when it comes, is dropped
+    with pytest.raises(SolveAbandoned):  # the solve stops at its first stage block
+        rig.core.solve(out.solve)
+    # a solve that ended before it saw the cancel: its policy is dropped
+    rig.do(rig.core.on_solved(rig.core.solve(dataclasses.replace(out.solve, abandoned=threading.Event())), 0.0))
     assert rig.commands == [] and rig.core.job is None
     rig.start(token="g3")
     rig.result()
@@ -295,6 +300,21 @@ def test_cancel_during_the_solve_and_during_the_job(tmp_path):
     # the pass in flight is stopped (issue 37: it was ground to the end): its command again, stop set
     assert out.commands == [({**rig.commands[1], "stop": True}, True)] and rig.health.counts["passes_stopped"] == 1
     assert rig.core.cancel("g3") is None
+
+
+def test_a_cancelled_goals_solve_stops_counted_and_the_next_goal_is_taken(tmp_path):
+    """A cancelled goal's solve burned its CPU to the end (8 s for the largest goal); it now
+    stops at its next block of stages, and the next goal need not wait for it."""
+    rig = Rig(tmp_path)
+    request = GoalRequest(job_id="c1", bead_height_mm=1.0, bead_width_mm=12.5, bead_length_mm=300.0, deadline_s=100)
+    out = rig.core.accept(request, "g1", 0.0)
+    rig.core.cancel("g1")
+    with pytest.raises(SolveAbandoned, match="c1 is no longer wanted") as stopped:
+        rig.core.solve(out.solve)
+    rig.do(rig.core.on_solved(stopped.value, 0.0))
+    assert rig.commands == [] and rig.health.counts.get("abandoned_solves") == 1
+    assert "solves" not in rig.health.counts and rig.core.solving is None
+    rig.core.check_goal(dataclasses.replace(request, job_id="c2"))  # not "still solving"
 
 
 def test_a_failed_solve_rejects_the_goal(tmp_path):

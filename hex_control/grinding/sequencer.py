@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 import time
 from collections import deque
 from collections.abc import Callable
@@ -180,6 +181,12 @@ class SolveRequest:
     goal: JobGoal
     process: Any  # GrindingProcess
     charges: Any  # Charges
+    #: set when nobody will use the policy (its goal was cancelled): the solve stops at its next stage block
+    abandoned: threading.Event = field(default_factory=threading.Event, compare=False)
+
+
+class SolveAbandoned(Exception):
+    """A solve stopped because its goal was cancelled (``SolveRequest.abandoned``)."""
 
 
 @dataclass
@@ -287,6 +294,7 @@ class Sequencer:
         self.token = None  # the running job's goal (the node's handle); None for a resumed job
         self.model_update: PassModelUpdate | None = None
         self.solving: tuple | None = None  # (purpose "start" | "resolve", goal token, goal) while solved
+        self._solve_request: SolveRequest | None = None  # the request of the solve running
         self.last_solve_ms = math.nan
         self.command: dict | None = None  # the latest pass command issued
         self._sent_at = None  # wall s the latest command went out
@@ -307,8 +315,14 @@ class Sequencer:
         process = dataclasses.replace(request.process, bead_width_mm=goal.bead_width_mm,
                                       bead_length_mm=goal.bead_length_mm)
         start = time.perf_counter()
+
+        def stop_if_abandoned(_stages):
+            if request.abandoned.is_set():
+                raise SolveAbandoned(f"the policy of {goal.job_id} is no longer wanted")
+
         policy = solve(self.as_planned(process), request.charges,
-                       self.grid.covering(goal.deadline_s, goal.material_mm), self.policy_model)
+                       self.grid.covering(goal.deadline_s, goal.material_mm), self.policy_model,
+                       progress=stop_if_abandoned)
         return process, policy, 1000 * (time.perf_counter() - start)
 
     def as_planned(self, process: GrindingProcess) -> GrindingProcess:
@@ -324,12 +338,15 @@ class Sequencer:
 
     def _request_solve(self, out: Outputs, purpose: str, goal: JobGoal, process, token=None) -> None:
         self.solving = (purpose, token, goal)
-        out.solve = SolveRequest(goal, process, self.charges)
+        out.solve = self._solve_request = SolveRequest(goal, process, self.charges)
 
     def on_solved(self, solution: tuple | BaseException, now_s: float) -> Outputs:
         """The policy asked for (``Outputs.solve``), or the exception its solve raised."""
         out = Outputs()
         (purpose, token, goal), self.solving = self.solving, None
+        if isinstance(solution, SolveAbandoned):  # its goal was cancelled: nothing waits for it
+            self.health.count("abandoned_solves")
+            return out
         if isinstance(solution, BaseException):
             if not isinstance(solution, (ValueError, ArithmeticError, MemoryError)):
                 raise solution
@@ -489,7 +506,8 @@ class Sequencer:
         if token is None or self.token is not token:
             return None
         if self.solving is not None and self.solving[1] is token:  # before its job began
-            self.solving = (self.solving[0], None, self.solving[2])  # the solve runs out; its policy is dropped
+            self.solving = (self.solving[0], None, self.solving[2])  # its policy is dropped
+            self._solve_request.abandoned.set()  # and the solve stops at its next stage block
             self._advance_after_solve, self.token = False, None
             out.finished = (token, {**self._rejected_result("cancelled while its policy was solved"),
                                     "reason": CANCELLED}, False)
