@@ -196,7 +196,8 @@ class LoadPredictorCore:
         (``identify_every`` samples after it), whatever the load: a run's predictions do not
         depend on how soon the identifying thread finished (adopted when done, a demo's skill
         fell from 0.23 to -0.08 on a loaded machine). It waits only for an identification that
-        took longer than that interval (60 ms for 500 samples; 1.25 s at 200 Hz)."""
+        took longer than that interval: one of 500 samples takes about 60 ms, the shipped
+        interval is 250 samples (1.25 s at 200 Hz)."""
         future = self._identification
         if future is None or self._since_identification + 1 < self.identify_every:
             return
