@@ -3,12 +3,13 @@ The node tests (test_load_predictor_node.py) check the same over ROS; these in m
 
 import math
 import threading
+import time
 from concurrent.futures import Future
 
 import numpy as np
 import pytest
 
-from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify
+from hex_control.estimation import GaussMarkovModel, OneStepPredictor, identify, load_predictor
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.estimation.load_predictor import LoadPredictorCore, LoadPredictorSettings
 
@@ -106,6 +107,30 @@ def test_the_predictions_do_not_depend_on_how_soon_the_identification_ends():
         core = LoadPredictorCore(settings, submit=submit) if submit else LoadPredictorCore(settings)
         runs.append([core.measure(value).step.prediction for value in series])
     assert runs[0] == runs[1]
+
+
+def test_an_identification_later_than_its_wait_is_counted_and_taken_up_when_it_comes(monkeypatch):
+    """A window too large for its interval (or a machine far too slow) holds the sample due to
+    adopt it IDENTIFICATION_WAIT_S at most, once; the model comes in when the thread ends."""
+    monkeypatch.setattr(load_predictor, "IDENTIFICATION_WAIT_S", 0.02)
+    release = threading.Event()
+
+    def stalled(function, *args):
+        future = Future()
+        threading.Thread(target=lambda: (release.wait(10.0), future.set_result(function(*args)))).start()
+        return future
+
+    series = [float(v) for v in 40.0 + np.cumsum(np.random.default_rng(5).normal(0, 0.3, 200))]
+    core = LoadPredictorCore(LoadPredictorSettings(identify_window=60, identify_every=20), submit=stalled)
+    outs = [core.measure(value) for value in series[:100]]
+    assert sum(o.counts.get("identifications_late", 0) for o in outs) == 1  # waited once, not at every sample
+    assert not any(o.counts.get("identifications") for o in outs)
+    release.set()
+    deadline = time.monotonic() + 10.0
+    while not core._identification.done() and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert core.measure(series[100]).counts.get("identifications") == 1
+    assert core.predictor.model == identify(series[:50]).model
 
 
 def test_a_failed_identification_is_counted_and_filtering_goes_on():

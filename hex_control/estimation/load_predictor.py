@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from concurrent.futures import Future
+from concurrent.futures import Future, wait
 from dataclasses import dataclass, field
 
 from hex_control.estimation.drift import DriftingLoadPredictor
@@ -23,6 +23,10 @@ from hex_control.estimation.kalman import OneStepPredictor, PredictionStep
 
 #: samples before the first online identification (the window may still be filling)
 MIN_IDENTIFICATION_SAMPLES = 50
+#: wall s the sample due to adopt an identification waits for it, at most once: beyond, the model
+#: is taken up when it comes (counted ``identifications_late``: the predictions then depend on
+#: the load), so a window too large for its interval cannot hold the executor for long
+IDENTIFICATION_WAIT_S = 1.0
 #: the model's values: set live (or by the online identification); the rest at start-up
 MODEL_VALUES = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
 
@@ -93,6 +97,7 @@ class LoadPredictorCore:
         self.identify_every = settings.identify_every or max(settings.identify_window // 4, 1)
         self._since_identification = self.identify_every  # identify as soon as possible
         self._identification: Future | None = None
+        self._waited_for: Future | None = None  # the identification the sample due to adopt it waited for
         self.drifting = False  # the drift probability is above one half
         self.last_stamp_ns: int | None = None
 
@@ -196,11 +201,21 @@ class LoadPredictorCore:
         (``identify_every`` samples after it), whatever the load: a run's predictions do not
         depend on how soon the identifying thread finished (adopted when done, a demo's skill
         fell from 0.23 to -0.08 on a loaded machine). It waits only for an identification that
-        took longer than that interval: one of 500 samples takes about 60 ms, the shipped
-        interval is 250 samples (1.25 s at 200 Hz)."""
+        took longer than that interval (one of 500 samples takes about 60 ms, the shipped
+        interval is 250 samples, 1.25 s at 200 Hz), and at most IDENTIFICATION_WAIT_S."""
         future = self._identification
         if future is None or self._since_identification + 1 < self.identify_every:
             return
+        if not future.done():
+            if self._waited_for is future:  # waited once: taken up when it comes
+                return
+            self._waited_for = future
+            wait([future], timeout=IDENTIFICATION_WAIT_S)
+            if not future.done():
+                out.count("identifications_late")
+                out.log.append(("warning", f"identification still running {IDENTIFICATION_WAIT_S:g} s after it "
+                                           "was due: its model is taken up when it comes"))
+                return
         self._identification = None
         try:
             result = future.result()
