@@ -18,6 +18,10 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
+from hex_control.config import cell_configuration
+
+#: the top feed of the cell (config/cell.yaml), which makes the fastest pass
+FEED_MAX_MM_S = cell_configuration().value("process.feed_max_mm_s")
 NAME = re.compile(r"(?P<variant>[a-z]+)_(?P<machine>[a-z0-9]+)_h(?P<height>[0-9.]+)_d(?P<deadline>[0-9.]+)(_s\d+)?$")
 
 
@@ -35,7 +39,7 @@ def jobs(root: Path):
 
 def summary(job: dict) -> dict:
     goal, outcome, part = job["goal"], job["outcome"], job["part_quality"]
-    shortest_s = goal["bead_length_mm"] / 75.0 + goal["reset_time_s"]  # the fastest pass (feed_max 75 mm/s)
+    shortest_s = goal["bead_length_mm"] / FEED_MAX_MM_S + goal["reset_time_s"]  # the fastest pass
     within = abs(part["highest_mm"]) <= 0.1 and part["gouge_mm"] <= 0.1
     return {"seed": goal["seed"], "within": within, "highest": part["highest_mm"], "charge": outcome["total_charge"],
             "expected": job["expected_penalty_at_start"], "passes": outcome["passes"],
