@@ -78,6 +78,12 @@ def test_quaternion_and_matrix_conversions_are_scipys():
             expected = Rotation.from_matrix(matrix).as_euler("xyz")
         np.testing.assert_allclose(rpy_from_matrix(matrix), expected, atol=1e-9)
         np.testing.assert_allclose(quaternion_from_rpy(*rpy), Rotation.from_euler("xyz", rpy).as_quat(), atol=1e-12)
+    # near the lock, the angles rebuild the matrix to the last bits (arcsin of r20 lost 1e-6)
+    for near in (1e-3, 1e-6, 1e-7, 1e-9):
+        for pitch in (np.pi / 2 - near, -np.pi / 2 + near):
+            matrix = rotation_matrix(0.3, pitch, 0.7)
+            np.testing.assert_allclose(rotation_matrix(*rpy_from_matrix(matrix)), matrix, atol=1e-14)
+    assert str(rpy_from_matrix(np.eye(3)).tolist()) == "[0.0, 0.0, 0.0]"  # no -0 in a URDF
     with pytest.raises(ValueError):
         matrix_from_quaternion(0.0, 0.0, 0.0, 0.0)
 

@@ -79,7 +79,9 @@ def rpy_from_matrix(rotation) -> np.ndarray:
     """(roll, pitch, yaw) rad of R = R_z(yaw) R_y(pitch) R_x(roll). At pitch = +-pi/2 only
     roll - yaw (or roll + yaw) is defined: yaw is then 0, as scipy's ``as_euler`` chooses."""
     r = np.asarray(rotation, float)
-    pitch = np.arcsin(np.clip(-r[2, 0], -1.0, 1.0))
-    if abs(r[2, 0]) > 1 - 1e-12:
-        return np.array([np.arctan2(-r[2, 0] * r[0, 1], r[1, 1]), pitch, 0.0])
-    return np.array([np.arctan2(r[2, 1], r[2, 2]), pitch, np.arctan2(r[1, 0], r[0, 0])])
+    cos_pitch = np.hypot(r[0, 0], r[1, 0])
+    # atan2, not arcsin of r[2, 0]: exact to the last bits near +-pi/2 too; + 0.0: no -0 in a URDF
+    pitch = np.arctan2(-r[2, 0], cos_pitch) + 0.0
+    if cos_pitch < 1e-12:
+        return np.array([np.arctan2(-r[2, 0] * r[0, 1], r[1, 1]) + 0.0, pitch, 0.0])
+    return np.array([np.arctan2(r[2, 1], r[2, 2]), pitch, np.arctan2(r[1, 0], r[0, 0])]) + 0.0
