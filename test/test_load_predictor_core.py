@@ -3,8 +3,7 @@ The node tests (test_load_predictor_node.py) check the same over ROS; these in m
 
 import math
 import threading
-import time
-from concurrent.futures import Future
+from concurrent.futures import Future, wait
 
 import numpy as np
 import pytest
@@ -126,9 +125,7 @@ def test_an_identification_later_than_its_wait_is_counted_and_taken_up_when_it_c
     assert sum(o.counts.get("identifications_late", 0) for o in outs) == 1  # waited once, not at every sample
     assert not any(o.counts.get("identifications") for o in outs)
     release.set()
-    deadline = time.monotonic() + 10.0
-    while not core._identification.done() and time.monotonic() < deadline:
-        time.sleep(0.01)
+    assert wait([core._identification], timeout=10.0).done  # the thread ends: a condition, not a sleep
     assert core.measure(series[100]).counts.get("identifications") == 1
     assert core.predictor.model == identify(series[:50]).model
 
