@@ -35,8 +35,13 @@ class Clock:
 class Outputs:
     def __init__(self):
         self.states, self.holds, self.started, self.ended = [], [], [], []
+        self.measurements = []  # (time s, measured force N)
 
-    def state(self, snapshot):
+    def measurement(self, time_s, measured_force_n):
+        self.measurements.append((time_s, measured_force_n))
+
+    def state(self, snapshot):  # right after its own period's measurement
+        assert self.measurements[-1] == (snapshot.time_s, snapshot.measured_force_n)
         self.states.append(snapshot.time_s)
 
     def hold(self, snapshot):
@@ -76,6 +81,32 @@ def answer(core, stamp_s=None, position_mm=-2.0):
 def ramp(start_s, seconds=1.0):
     t = np.arange(0.0, seconds + 1e-9, PERIOD)
     return StrutTrajectory(start_s, t, np.repeat(np.linspace(2.60, 2.62, t.size)[:, None], 6, axis=1))
+
+
+def test_the_measurement_goes_out_before_the_machine_steps_and_a_failed_step_stops_nothing():
+    """The wrench the controller answers leaves as soon as the force table has stepped; the
+    struts step after it (the controller computes meanwhile). A step that then fails (the
+    tool beyond the forward kinematics) is counted, its state never sent, and the answer to
+    its measurement steps the loop on."""
+    core, outputs, events, _ = make_core()
+    core.on_strut_command([], [2.6] * 6, 0.0)
+    machine_step = core.sim.machine.advance
+    seen = []
+
+    def advance(commands_m, steps):
+        seen.append(outputs.measurements[-1][0])  # the period's measurement is already out
+        if len(seen) == 2:
+            raise ValueError("forward kinematics did not converge")
+        machine_step(commands_m, steps)
+
+    core.sim.machine.advance = advance
+    answer(core)
+    answer(core)
+    assert seen == pytest.approx([0.005, 0.01]) and events.counts == {"simulation_errors": 1}
+    assert outputs.states == pytest.approx([0.0, 0.005])  # not the failed period's
+    answer(core)
+    assert [t for t, _ in outputs.measurements] == pytest.approx([0.0, 0.005, 0.01, 0.015])
+    assert outputs.states[-1] == pytest.approx(0.015) and core.gate.timing.missed == 0
 
 
 def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on():

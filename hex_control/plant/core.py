@@ -7,7 +7,8 @@ Inputs are plain values (the node converts its messages): a force-axis command (
 stamp of the state it answers, ns), strut commands (lengths m, stamped), strut trajectories
 (:class:`StrutTrajectory`), pass announcements (:class:`ScheduledPass`) and the force
 controller's status (the pass whose force trajectory it holds). Outputs go to a
-:class:`PlantOutputs` (a state to publish, standing still, a pass begun or ended);
+:class:`PlantOutputs` (a period's measurement, as soon as the force table has stepped,
+then the rest of its state; standing still; a pass begun or ended);
 counters, faults and log lines to :class:`Events`. Wall time comes from ``clock``.
 
 What the plant does with them:
@@ -48,8 +49,12 @@ LAG_WARN_S = 0.5  # real time: lag behind the wall clock beyond which the plant 
 
 
 class PlantOutputs(Protocol):
+    def measurement(self, time_s: float, measured_force_n: float) -> None:
+        """Publish one period's force measurement, the input the controller answers; it goes
+        out before the rest of the period is simulated, so the two overlap."""
+
     def state(self, snapshot: PlantSnapshot) -> None:
-        """Publish one period's state (the measurement the controller answers)."""
+        """Publish the rest of one period's state (after its measurement)."""
 
     def hold(self, snapshot: PlantSnapshot) -> None:
         """The plant stands still (lock-step between passes): say where, once."""
@@ -143,7 +148,12 @@ class PlantCore:
     # -- outputs ---------------------------------------------------------------------------
     def publish_state(self) -> None:
         """Send the present state (at start-up, and again while nobody has answered)."""
-        self.outputs.state(self.sim.snapshot())
+        snapshot = self.sim.snapshot()
+        self._measured(snapshot.time_s, snapshot.measured_force_n)
+        self.outputs.state(snapshot)
+
+    def _measured(self, time_s: float, measured_force_n: float) -> None:
+        self.outputs.measurement(time_s, measured_force_n)
         self.gate.sent(self.clock())
 
     def refuse(self, counter: str, text: str) -> None:
@@ -300,8 +310,8 @@ class PlantCore:
         command_mm = self._limited_command()
         limiter = self.sim.strut_limiter
         limited = limiter.limited if limiter is not None else 0
-        try:
-            state = self.sim.advance(s.period_s, command_mm)
+        try:  # the measurement goes out, and the gate waits for its answer, mid-period
+            state = self.sim.advance(s.period_s, command_mm, self._measured)
         except ValueError as error:  # the tool left the machine's forward kinematics
             self.events.count("simulation_errors")
             self.events.log("error", f"plant step failed: {error}")
@@ -311,7 +321,6 @@ class PlantCore:
         if self.monitor is not None:
             self._monitor_pass(state, command_age_s)
         self.outputs.state(state)
-        self.gate.sent(self.clock())
 
     def _limited_command(self) -> float:
         """The force command within the table's travel, or the retract stop while tripped."""

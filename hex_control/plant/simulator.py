@@ -10,6 +10,7 @@ Units: mm and N for the force axis, m for struts, s.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,8 +73,13 @@ class PlantSimulator:
             self._machine_ready = True
         self.strut_commands_m = lengths
 
-    def advance(self, duration_s: float, force_command_mm: float) -> PlantSnapshot:
-        """Hold the force-axis command for ``duration_s`` (a whole number of internal steps)."""
+    def advance(self, duration_s: float, force_command_mm: float,
+                measured: Callable[[float, float], None] | None = None) -> PlantSnapshot:
+        """Hold the force-axis command for ``duration_s`` (a whole number of internal steps).
+        ``measured(time_s, measured_force_n)`` is called as soon as the force table has
+        stepped, before the machine and the workpiece are: the sensor's reading at the
+        period's end does not depend on them (the table sees the work surface the last
+        period left), so a controller can compute its answer meanwhile."""
         steps = round(duration_s / self.step_s)
         if steps < 1 or abs(steps * self.step_s - duration_s) > 1e-9:
             raise ValueError("duration must be a whole number of internal steps")
@@ -83,9 +89,11 @@ class PlantSimulator:
             struts = self.strut_limiter.command(struts, duration_s)
         # the table and the machine do not touch within a period: each runs its steps at once
         self.table.advance(force_command_mm, steps)
+        self.time_s += steps * self.step_s
+        if measured is not None:
+            measured(self.time_s, self.table.measured_n)
         if self._machine_ready:
             self.machine.advance(struts, steps)
-        self.time_s += steps * self.step_s
         if self.cell is not None and self._machine_ready:
             self.centre_mm = self.locator.centre_mm(self.machine.lengths_m, self.machine.deflection_mm)
             self.table.surface_mm = self.cell.advance(duration_s, self.centre_mm, self.table.position_mm)

@@ -153,6 +153,9 @@ class PlantNode(Node):
         self.core.on_controller_status(msg.message, {pair.key: pair.value for pair in msg.values})
 
     # -- outputs (PlantOutputs) --------------------------------------------------------------
+    def measurement(self, time_s: float, measured_force_n: float) -> None:
+        self.streams.measurement(time_s, measured_force_n)
+
     def state(self, snapshot) -> None:
         self.streams.state(snapshot)
 

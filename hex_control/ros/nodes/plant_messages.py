@@ -100,17 +100,22 @@ class PlantStreams:
         self._telemetry_subscribed = False  # asked as each batch begins
         self._strut_subscribers = 0  # asked with each /clock message
 
-    def state(self, state) -> None:
-        stamp = time_msg(state.time_s)
-        if state.time_s >= self.next_clock_s - 1e-9:
+    def measurement(self, time_s: float, measured_force_n: float) -> None:
+        """/clock when due, then the wrench the controller answers."""
+        stamp = time_msg(time_s)
+        if time_s >= self.next_clock_s - 1e-9:
             self.clock.publish(Clock(clock=stamp))
-            self.next_clock_s = (math.floor(state.time_s / self.clock_period_s + 1e-6) + 1) * self.clock_period_s
+            self.next_clock_s = (math.floor(time_s / self.clock_period_s + 1e-6) + 1) * self.clock_period_s
             self._strut_subscribers = self.struts.get_subscription_count()
         wrench = self._wrench
         wrench.header.stamp = stamp
-        wrench.wrench.force.z = float(state.measured_force_n)
+        wrench.wrench.force.z = float(measured_force_n)
         self.wrench.publish(wrench)
+
+    def state(self, state) -> None:
+        """The period's telemetry, strut states and (``debug_streams``) the rest."""
         self.record(state)
+        stamp = time_msg(state.time_s)
         if self.debug_streams:
             truth = WrenchStamped()
             truth.header.stamp, truth.header.frame_id = stamp, "tool"
