@@ -50,7 +50,7 @@ class Cell:
 
     def do(self, out):
         self.commands += [values for values, resend in out.commands if not resend]
-        self.feedback += out.feedback
+        self.feedback += [make() for make in out.feedback]  # after the commands, as the node does
         self.finished = out.finished or self.finished
         if out.solve is not None:
             self.do(self.core.on_solved(self.core.solve(out.solve), 0.0))

@@ -44,6 +44,7 @@ caller's monotonic wall clock ``now_s``. Units: mm, N, s; stamps in ns of the pl
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import threading
 import time
@@ -196,8 +197,10 @@ class Outputs:
     to solve off the executor thread."""
 
     commands: list = field(default_factory=list)  # (values dict, a resend or stop: bool)
-    #: GrindBead.Feedback values of each new command (its values under "command"); the first
-    #: says whether the deadline can be reached and the expected end state (issue 42 item 3)
+    #: of each new command, a call that returns its GrindBead.Feedback values (its values under
+    #: "command"); the first says whether the deadline can be reached and the expected end
+    #: state (issue 42 item 3). A call, so the node sends the commands before the outlook's
+    #: rollouts (tens of ms) are run: the pass planner starts that much sooner.
     feedback: list = field(default_factory=list)
     finished: tuple | None = None  # (goal token or None, result dict, a job's end: also on ~/job_result)
     solve: SolveRequest | None = None
@@ -543,7 +546,7 @@ class Sequencer:
         self._held = None
         self.health.clear("overdue")
         out.commands.append((command, False))
-        out.feedback.append(self._feedback(command, decision))
+        out.feedback.append(functools.partial(self._feedback, command, decision))
 
     def _profile_now(self) -> Profile | None:
         """The plant's scan of the job's part as it now is (after the passes applied), if here."""

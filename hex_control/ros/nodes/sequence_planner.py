@@ -112,14 +112,15 @@ class SequencePlannerNode(Node):
         """Send what the core decided."""
         for values, _ in out.commands:
             self.command_pub.publish(_command(values))
-        for values in out.feedback:  # each new command's; the first says if the deadline can be met
+        for make in out.feedback:  # each new command's; the first says if the deadline can be met
+            values = make()
             feedback = GrindBead.Feedback(command=_command(values["command"]),
                                           **{k: v for k, v in values.items() if k != "command"})
             self.feedback_pub.publish(feedback)
             if (handle := self.core.token) is not None and handle.is_active:
                 handle.publish_feedback(feedback)
         if out.solve is not None:
-            self.solving = in_background(self.core.solve, out.solve)
+            self.solving = in_background(self.core.solve, out.solve, then=(self, self._poll_solve))
         if out.finished is not None:
             handle, values, job_ended = out.finished
             result = GrindBead.Result(**{**values, "reason": REASONS[values["reason"]]})
