@@ -82,11 +82,13 @@ def init(args=None) -> threading.Event:
 _background: set[threading.Thread] = set()  # threads started by in_background, while they run
 
 
-def in_background(function, *args) -> Future:
+def in_background(function, *args, then: tuple | None = None) -> Future:
     """``function(*args)`` on a daemon thread; its Future, which the node polls from its
-    executor. Daemon, because the interpreter joins a ThreadPoolExecutor's threads at exit:
-    a node stopped amid a long computation (a policy solve, a pass plan, a shaper design)
-    would not exit until it ended."""
+    executor. ``then`` = (node, callback): once the future is done, ``callback`` runs on the
+    node's executor at once rather than at the next poll (a pass waits for each hand-over
+    while the plant's clock stands). Daemon, because the interpreter joins a
+    ThreadPoolExecutor's threads at exit: a node stopped amid a long computation (a policy
+    solve, a pass plan, a shaper design) would not exit until it ended."""
     future = Future()
 
     def run():
@@ -97,11 +99,22 @@ def in_background(function, *args) -> Future:
             future.set_exception(exc)
         finally:
             _background.discard(threading.current_thread())
+            if then is not None:
+                wake(*then)
 
     thread = threading.Thread(target=run, name=getattr(function, "__name__", "background"), daemon=True)
     _background.add(thread)
     thread.start()
     return future
+
+
+def wake(node, callback) -> None:
+    """Run ``callback`` on ``node``'s executor soon; safe from any thread (the events
+    executor has no guard conditions, but its task queue, like rclpy's executors', takes
+    work from any thread). Before the node spins, nothing: its poll timer still runs."""
+    executor = node.executor
+    if executor is not None:
+        executor.create_task(callback)
 
 
 def _exit_past_background_work(code: int) -> None:

@@ -25,7 +25,7 @@ from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.message_info import info_subscription
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
-from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
+from hex_control.ros.infra.runtime import in_background, run_node, wake, wall_timer
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
 from hex_control_msgs.srv import TestPose
@@ -105,7 +105,7 @@ class PassPlannerNode(Node):
 
     def _try_plan(self) -> None:
         if (ready := self.core.next_to_plan()) is not None:
-            self.planning = in_background(self.core.plan, *ready)
+            self.planning = in_background(self.core.plan, *ready, then=(self, self._poll))
 
     def _poll(self) -> None:
         self._end(self.core.expired(now := time.monotonic()))
@@ -141,6 +141,7 @@ class PassPlannerNode(Node):
             poses = [ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
                      for x, y, z in checked_positions(self.core.checking[1].path)]
             self.reach, self.reach_sent_at = self.reach_client.call_async(TestPose.Request(poses=poses)), now
+            self.reach.add_done_callback(lambda _future: wake(self, self._poll))  # not at the next poll
 
     def _end(self, verdict: Verdict | None) -> None:
         if verdict is None:
