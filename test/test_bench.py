@@ -96,15 +96,19 @@ def test_seed_004_benchmarks_print_their_figures(capsys):
 
 
 def test_the_clocks_standing_time_is_the_wall_time_beyond_the_jobs_pace():
-    """hexctl bench graph: telemetry batches of 0.1 s sim every 0.02 s wall, and one gap of
-    1.5 s wall before a batch (the planners planning while the plant held): 1.48 s stood."""
+    """hexctl bench graph: telemetry batches of 0.1 s sim every 0.02 s wall. The goal goes out
+    at wall 0, sim 0, and the first batch comes 0.5 s later (the first pass planned: 0.48 s
+    stood); after a scan the plant holds at sim 2.0 s and the next batch takes 1.5 s (1.48 s
+    stood). A batch late by 30 ms elsewhere is the machine's jitter, not the clock standing."""
     from hex_control.bench.graph import standing_wall_s
 
     arrivals, wall, sim = [], 0.0, 0.0
     for k in range(40):
-        wall += 1.5 if k == 20 else 0.02
+        wall += {0: 0.5, 20: 1.5, 30: 0.05}.get(k, 0.02)
         sim += 0.1
-        arrivals.append((wall, sim))
-    assert standing_wall_s(arrivals) == pytest.approx(1.48, abs=1e-9)
-    assert standing_wall_s(arrivals[:20]) == pytest.approx(0.0, abs=1e-9)
-    assert standing_wall_s([]) == 0.0
+        arrivals.append((wall, round(sim, 9)))
+    assert standing_wall_s(arrivals, (0.0, 0.0), [2.0]) == pytest.approx(0.48 + 1.48, abs=1e-9)
+    assert standing_wall_s(arrivals, (0.0, 0.0), [2.05]) == pytest.approx(0.48 + 1.48, abs=1e-9)  # inside the gap
+    assert standing_wall_s(arrivals, (0.0, 0.0), []) == pytest.approx(0.48, abs=1e-9)
+    assert standing_wall_s(arrivals[:1], (0.0, 0.0), []) == 0.0  # no pace to judge by
+    assert standing_wall_s([], (0.0, 0.0), [2.0]) == 0.0

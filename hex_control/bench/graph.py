@@ -24,6 +24,7 @@ from pathlib import Path
 from unittest import mock
 
 from hex_control.bench import benchmark
+from hex_control.plant.lockstep import PLAN_AHEAD_S
 
 #: simulated s per wall s of the per-sample flow (a sample per message through three
 #: processes, /clock at 200 Hz to every node), README of stop 19
@@ -46,16 +47,26 @@ def own_cpu_s() -> float:
     return times.user + times.system
 
 
-def standing_wall_s(arrivals: list[tuple[float, float]]) -> float:
-    """Wall time (s) the plant's clock stood still, from the telemetry batches' (wall s
-    of arrival, sim s of their last sample): each gap's wall time beyond what its sim time
-    took at the job's median pace. In lock-step the plant holds between passes while the
-    planners plan: one batch says where, the next comes once the next pass is in hand."""
-    gaps = [(w1 - w0, s1 - s0) for (w0, s0), (w1, s1) in zip(arrivals, arrivals[1:]) if s1 > s0]
-    if not gaps:
+def standing_wall_s(arrivals: list[tuple[float, float]], start: tuple[float, float],
+                    hold_points_s: list[float]) -> float:
+    """Wall time (s) the plant's clock stood still for planning, from the telemetry batches'
+    (wall s of arrival, sim s of their last sample) after the goal went out at ``start`` =
+    (wall s, the plant's sim s then). In lock-step the plant stands at the goal until the
+    first pass is in hand, and after each scan once it has run ``plan_ahead_s`` on, at
+    ``hold_points_s`` (sim s), until the next is. Each of those gaps counts its wall time
+    beyond what its sim time took at the job's pace (the median over the other batches);
+    the other gaps' jitter is not standing."""
+    gaps = [(w1 - w0, s1 - s0, s0) for (w0, s0), (w1, s1) in zip([start, *arrivals], arrivals) if s1 > s0]
+
+    def holds(sim_start_s: float, sim_s: float) -> bool:
+        return any(sim_start_s - 1e-6 <= point < sim_start_s + sim_s - 1e-6 for point in hold_points_s)
+
+    standing = [(wall, sim) for k, (wall, sim, s0) in enumerate(gaps) if k == 0 or holds(s0, sim)]
+    running = [wall / sim for k, (wall, sim, s0) in enumerate(gaps) if not (k == 0 or holds(s0, sim))]
+    if not running:
         return 0.0
-    pace = statistics.median(wall / sim for wall, sim in gaps)
-    return sum(max(0.0, wall - sim * pace) for wall, sim in gaps)
+    pace = statistics.median(running)
+    return sum(max(0.0, wall - sim * pace) for wall, sim in standing)
 
 
 def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s: float, seed: int,
@@ -82,7 +93,8 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
         sim = (max(r["stamp_s"] for r in results) if results else session.record.force[-1][0]) - sim_start
         cpu = {name: cpu_s(p.pid) - cpu_start[name] for name, p in processes.items()}
         cpu["observer"] = own_cpu_s() - own_start
-    return {"outcome": outcome, "wall_s": wall, "sim_s": sim, "cpu_s": cpu, "standing_s": standing_wall_s(arrivals),
+    standing = standing_wall_s(arrivals, (wall_start, sim_start), [r["stamp_s"] + PLAN_AHEAD_S for r in results])
+    return {"outcome": outcome, "wall_s": wall, "sim_s": sim, "cpu_s": cpu, "standing_s": standing,
             "results": {k: (r["measured_cut_depth_mm"], r["duration_s"]) for k, r in session.record.results.items()}}
 
 
