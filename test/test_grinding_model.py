@@ -38,6 +38,29 @@ def test_air_motor_slows_the_disk_and_the_cut():
     assert motor.cut_depth_mm(motor.zero_cut_force_n(), 10.0) == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_force_of_a_removal_numerator_inverts_eq_4_6_on_its_rising_branch():
+    """F_N from C1 C3 F_N + C2 (the planners' depth times feed), closed form, against
+    scipy's brentq on the rising branch; with the motor's drop (eq. 4.8) and without it; the
+    zero-cut force at a numerator of 0; beyond the peak of the quadratic, no force."""
+    from scipy.optimize import brentq
+
+    for process in (TYPICAL, GrindingProcess(motor_beta_rad_s_per_n_mm=0.005),
+                    GrindingProcess(motor_beta_rad_s_per_n_mm=0.05)):
+        zero_cut = process.zero_cut_force_n()
+        assert process.force_for_numerator_n(0.0) == pytest.approx(zero_cut, rel=1e-12)
+        for force in (zero_cut + 0.1, 20.0, 45.0, 60.0):
+            wanted = float(process.removal_numerator(force))
+            solved = process.force_for_numerator_n(wanted)
+            assert solved == pytest.approx(force, rel=1e-12)
+            assert solved == pytest.approx(brentq(lambda f, w=wanted, p=process: float(p.removal_numerator(f)) - w,
+                                                  zero_cut, 60.0 + 1e-9), rel=1e-10)
+    stalling = GrindingProcess(motor_beta_rad_s_per_n_mm=0.05)  # its numerator peaks at F = omega_0 / (2 beta R mu)
+    peak = float(stalling.removal_numerator(stalling.disk_speed_rad_s / (2 * 0.05 * stalling.disk_radius_mm
+                                                                          * stalling.friction_coefficient)))
+    with pytest.raises(ValueError, match="beyond the numerator's peak"):
+        stalling.force_for_numerator_n(peak * 1.01)
+
+
 def test_constraints():
     burn = GrindingProcess(burn_coefficient=10.0, max_power_w=800.0)
     assert burn.feasible(30.0, 9.0) and not burn.feasible(31.0, 9.0)  # F <= C_B sqrt(V) (5.11)

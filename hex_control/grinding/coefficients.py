@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from hex_control.grinding.model import WATT, GrindingProcess
 
@@ -85,8 +84,7 @@ def achievable_mean_force_n(process: GrindingProcess, force_n: float, commanded_
         raise ValueError(f"force {force_n:g} N removes nothing (zero-cut force {zero_cut:.1f} N)")
     # the depth is the removal numerator over the feed (eq. 4.6): the feed cancels
     wanted = float(process.removal_numerator(force_n)) * min(max(planned_depth_mm / commanded_depth_mm, 0.0), 1.0)
-    planned_force = brentq(lambda f: float(process.removal_numerator(f)) - wanted, zero_cut, force_n) \
-        if wanted > 0 else zero_cut
+    planned_force = process.force_for_numerator_n(wanted) if wanted > 0 else zero_cut
     return min(planned_force * process.force_max_n / planned_peak_force_n, process.force_max_n)
 
 

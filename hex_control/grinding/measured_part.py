@@ -33,7 +33,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from hex_control.grinding.contour import Contour, final_contour, positive_area
 from hex_control.grinding.model import GrindingProcess
@@ -146,21 +145,15 @@ def prior_force_limit_n(profile: Profile, process: GrindingProcess, feeds_mm_s, 
     fraction = rule.dynamic_guard_factor * float(np.mean([static_guard_fraction(coarse, process, v)
                                                           for v in feeds_mm_s]))
     wanted = fraction * float(process.removal_numerator(process.force_max_n))
-    zero_cut = process.zero_cut_force_n()
-    if not wanted > 0:
-        return zero_cut
-    return float(brentq(lambda f: float(process.removal_numerator(f)) - wanted, zero_cut, process.force_max_n))
+    return process.force_for_numerator_n(wanted) if wanted > 0 else process.zero_cut_force_n()
 
 
 def force_for_cut_n(process: GrindingProcess, cut_mm: float, feed_mm_s: float) -> float:
     """The normal force (N) of mean cut ``cut_mm`` at ``feed_mm_s`` (eq. 4.6 inverted), within F_max."""
     wanted = cut_mm * feed_mm_s
-    zero_cut = process.zero_cut_force_n()
     if wanted >= float(process.removal_numerator(process.force_max_n)):
         return process.force_max_n
-    if wanted <= 0:
-        return zero_cut
-    return float(brentq(lambda f: float(process.removal_numerator(f)) - wanted, zero_cut, process.force_max_n))
+    return process.force_for_numerator_n(wanted) if wanted > 0 else process.zero_cut_force_n()
 
 
 def finishing_pass(profile: Profile, process: GrindingProcess, rule: PartRule, *, time_left_s: float,

@@ -122,6 +122,20 @@ class GrindingProcess:
         """Mean cut depth delta = max(0, (C1 C3 F_N + C2)/V_f) (eq. 4.6; 5.5 prints min, a typo)."""
         return np.maximum(self.removal_numerator(force_n) / np.asarray(feed_mm_s, float), 0.0)
 
+    def force_for_numerator_n(self, numerator_mm2_s: float) -> float:
+        """The normal force F_N (N) whose removal numerator C1 C3 F_N + C2 is
+        ``numerator_mm2_s`` (mm^2/s; eq. 4.6 inverted, as the planners ask of a depth and a
+        feed), on the rising branch: the motor's speed drop (eq. 4.8) makes the numerator a
+        quadratic in F_N, and this is its smaller root, in the form without cancellation.
+        ValueError beyond the numerator's peak (the motor stalls first)."""
+        a = self.c1 * self.friction_coefficient * self.disk_radius_mm / self.bead_width_mm
+        k = self.motor_beta_rad_s_per_n_mm * self.disk_radius_mm * self.friction_coefficient
+        b, rest = a * self.disk_speed_rad_s, numerator_mm2_s - self.c2
+        disc = b * b - 4 * a * k * rest
+        if not disc >= 0:
+            raise ValueError(f"no force removes {numerator_mm2_s!r} mm^2/s: beyond the numerator's peak")
+        return 2 * rest / (b + math.sqrt(disc))
+
     def zero_cut_force_n(self) -> float:
         """F_N below which nothing is removed (the pivot of the constant-cut lines, Fig. 5-13)."""
         if self.motor_beta_rad_s_per_n_mm == 0:
