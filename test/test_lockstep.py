@@ -109,6 +109,31 @@ def test_the_measurement_goes_out_before_the_machine_steps_and_a_failed_step_sto
     assert outputs.states[-1] == pytest.approx(0.015) and core.gate.timing.missed == 0
 
 
+def test_the_plants_own_work_after_the_measurement_is_not_the_controllers_silence():
+    """The watchdog times the controller from the end of the period, not from the
+    measurement: a rest of the period that takes longer than the timeout (a loaded machine, a
+    scan) runs nobody free, and the answer that then comes steps the loop."""
+    core, outputs, events, clock = make_core()
+    core.on_strut_command([], [2.6] * 6, 0.0)
+    answer(core)
+    machine_step = core.sim.machine.advance
+
+    def slow_advance(commands_m, steps):
+        clock.now += 2 * TIMEOUT  # the struts and the part take 2 s of wall time
+        machine_step(commands_m, steps)
+
+    core.sim.machine.advance = slow_advance
+    answer(core)
+    core.lockstep_watchdog(TIMEOUT)
+    assert not core.gate.free_running and "lockstep_timeouts" not in events.counts
+    answer(core)
+    assert outputs.states[-1] == pytest.approx(0.015) and not core.gate.free_running
+    assert core.gate.timing.latencies_s[-1] == pytest.approx(2 * TIMEOUT)  # it counts from the measurement
+    clock.now += TIMEOUT  # now the controller is silent for the whole timeout
+    core.lockstep_watchdog(TIMEOUT)
+    assert core.gate.free_running and events.counts["lockstep_timeouts"] == 1
+
+
 def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on():
     core, outputs, events, _ = make_core()
     assert outputs.states == [0.0]

@@ -151,6 +151,7 @@ class PlantCore:
         snapshot = self.sim.snapshot()
         self._measured(snapshot.time_s, snapshot.measured_force_n)
         self.outputs.state(snapshot)
+        self.gate.period_simulated(self.clock())
 
     def _measured(self, time_s: float, measured_force_n: float) -> None:
         self.outputs.measurement(time_s, measured_force_n)
@@ -307,11 +308,16 @@ class PlantCore:
         if command_age_s > s.command_timeout_s:
             self.command_mm = s.retract_mm  # amplifier watchdog
         self._apply_strut_commands()
-        command_mm = self._limited_command()
+        try:
+            self._simulate_period(self._limited_command(), command_age_s)
+        finally:  # the watchdog times the controller from here, not from the measurement
+            self.gate.period_simulated(self.clock())
+
+    def _simulate_period(self, command_mm: float, command_age_s: float) -> None:
         limiter = self.sim.strut_limiter
         limited = limiter.limited if limiter is not None else 0
-        try:  # the measurement goes out, and the gate waits for its answer, mid-period
-            state = self.sim.advance(s.period_s, command_mm, self._measured)
+        try:  # the measurement goes out mid-period: the controller answers while the rest is simulated
+            state = self.sim.advance(self.settings.period_s, command_mm, self._measured)
         except ValueError as error:  # the tool left the machine's forward kinematics
             self.events.count("simulation_errors")
             self.events.log("error", f"plant step failed: {error}")

@@ -74,6 +74,7 @@ class LockstepGate:
         self.holding = False  # standing still until a pass is covered
         self.free_running = False  # the controller stopped answering: running on the wall clock
         self.started = False  # a first command has answered a state
+        self.waiting_since_s: float | None = None  # the unanswered measurement's period ended here
         self.loop_start_s: float | None = None  # wall time of the first answer
 
     @staticmethod
@@ -83,7 +84,15 @@ class LockstepGate:
         return stamp_ns is not None and stamp_ns == time_ns(time_s)
 
     def sent(self, now_s: float) -> None:
+        """A measurement went out (the command latency counts from here)."""
         self.timing.sent(now_s)
+        self.waiting_since_s = None
+
+    def period_simulated(self, now_s: float) -> None:
+        """The rest of the period whose measurement went out is simulated: from now on the
+        wait for its answer is the controller's (the plant's own work is not its silence)."""
+        if self.timing.pending_since_s is not None:
+            self.waiting_since_s = now_s
 
     def answer(self, now_s: float) -> bool:
         """A command arrived; True if it answers the last state sent (then the first one
@@ -95,6 +104,7 @@ class LockstepGate:
         return answered
 
     def timed_out(self, now_s: float, timeout_s: float) -> bool:
-        """Has the last state waited ``timeout_s`` or more for its answer?"""
-        pending = self.timing.pending_since_s
-        return pending is not None and now_s - pending >= timeout_s
+        """Has the last state waited ``timeout_s`` or more for its answer since its period
+        was simulated?"""
+        since = self.waiting_since_s if self.timing.pending_since_s is not None else None
+        return since is not None and now_s - since >= timeout_s
