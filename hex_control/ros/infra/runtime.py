@@ -23,6 +23,7 @@ import threading
 from concurrent.futures import Future
 
 import rclpy
+from rclpy._rclpy_pybind11 import InvalidHandle
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import SingleThreadedExecutor
@@ -98,9 +99,11 @@ def in_background(function, *args, then: tuple | None = None) -> Future:
         except BaseException as exc:  # handed to the poller, which decides
             future.set_exception(exc)
         finally:
-            _background.discard(threading.current_thread())
-            if then is not None:
-                wake(*then)
+            try:
+                if then is not None:
+                    wake(*then)
+            finally:  # counted until here: at exit, a thread inside the executor's queue is still running
+                _background.discard(threading.current_thread())
 
     thread = threading.Thread(target=run, name=getattr(function, "__name__", "background"), daemon=True)
     _background.add(thread)
@@ -114,7 +117,10 @@ def wake(node, callback) -> None:
     work from any thread). Before the node spins, nothing: its poll timer still runs."""
     executor = node.executor
     if executor is not None:
-        executor.create_task(callback)
+        try:
+            executor.create_task(callback)
+        except InvalidHandle:  # shut down meanwhile (its guard condition destroyed): nobody to wake
+            pass
 
 
 def _exit_past_background_work(code: int) -> None:
