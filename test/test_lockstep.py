@@ -134,6 +134,27 @@ def test_the_plants_own_work_after_the_measurement_is_not_the_controllers_silenc
     assert core.gate.free_running and events.counts["lockstep_timeouts"] == 1
 
 
+def test_a_lost_answer_is_asked_for_again_before_the_plant_runs_free():
+    """A quarter of the timeout after its period, the waiting measurement goes out once more
+    (a flood on the topic can push the answer out of the plant's queue; the controller
+    answers a repeat with the same command), and the answer to it steps the loop as the
+    first would have. Silent for the whole timeout, the plant runs free."""
+    core, outputs, events, clock = make_core()
+    answer(core)
+    clock.now += TIMEOUT / 8
+    core.lockstep_watchdog(TIMEOUT)
+    assert len(outputs.measurements) == 2  # not yet
+    clock.now += TIMEOUT / 4
+    core.lockstep_watchdog(TIMEOUT)
+    core.lockstep_watchdog(TIMEOUT)
+    assert outputs.measurements[1:] == [outputs.measurements[1]] * 2 and events.counts["measurements_resent"] == 1
+    answer(core)
+    assert outputs.states[-1] == pytest.approx(0.01) and not core.gate.free_running
+    clock.now += TIMEOUT
+    core.lockstep_watchdog(TIMEOUT)
+    assert events.counts == {"measurements_resent": 2, "lockstep_timeouts": 1} and core.gate.free_running
+
+
 def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on():
     core, outputs, events, _ = make_core()
     assert outputs.states == [0.0]

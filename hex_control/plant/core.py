@@ -243,10 +243,19 @@ class PlantCore:
     # -- timers ----------------------------------------------------------------------------
     def lockstep_watchdog(self, timeout_s: float) -> None:
         """Every fraction of ``timeout_s`` (wall time): re-send an unanswered first state;
-        after the first answer, run free once the controller has been silent that long."""
-        if not self.gate.timed_out(self.clock(), timeout_s):
+        after the first answer, say the waiting measurement once more when a quarter of the
+        timeout has passed (it or its answer was lost on the way: a flood on the topic
+        overflows its queue; the controller answers a repeat with the same command), and run
+        free once the controller has been silent the whole timeout."""
+        gate, now = self.gate, self.clock()
+        if gate.started and not gate.resent and gate.timed_out(now, timeout_s / 4):
+            gate.resent = True
+            snapshot = self.sim.snapshot()
+            self.outputs.measurement(snapshot.time_s, snapshot.measured_force_n)
+            self.events.count("measurements_resent")
+        if not gate.timed_out(now, timeout_s):
             return
-        if not self.gate.started:
+        if not gate.started:
             self.publish_state()  # nobody answered yet: say it again
             return
         self.events.count("lockstep_timeouts")

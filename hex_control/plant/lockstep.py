@@ -6,8 +6,10 @@ command that answers it (stamped t, the state it answers); only that answer step
 loop. A command stamped otherwise (a late or repeated answer, a stranger's) is counted
 and changes nothing: it can neither stop nor shift the loop. Until a first command has
 answered, an unanswered state is sent again every ``lockstep_timeout_s`` of wall time;
-after that a timeout means the controller stopped answering, and the plant runs free on
-the wall clock with the held command until commands return.
+after that the waiting measurement is sent once more a quarter of the timeout after its
+period was simulated (it or its answer lost on the way), and a timeout means the
+controller stopped answering: the plant runs free on the wall clock with the held command
+until commands return.
 
 The cover. With a workpiece, sim time also never outruns the trajectories: it advances
 only while a pass runs, or is announced with the strut trajectory of its whole path held
@@ -75,6 +77,7 @@ class LockstepGate:
         self.free_running = False  # the controller stopped answering: running on the wall clock
         self.started = False  # a first command has answered a state
         self.waiting_since_s: float | None = None  # the unanswered measurement's period ended here
+        self.resent = False  # the unanswered measurement was said again
         self.loop_start_s: float | None = None  # wall time of the first answer
 
     @staticmethod
@@ -86,7 +89,7 @@ class LockstepGate:
     def sent(self, now_s: float) -> None:
         """A measurement went out (the command latency counts from here)."""
         self.timing.sent(now_s)
-        self.waiting_since_s = None
+        self.waiting_since_s, self.resent = None, False
 
     def period_simulated(self, now_s: float) -> None:
         """The rest of the period whose measurement went out is simulated: from now on the
