@@ -26,3 +26,22 @@ def test_only_the_latest_publishers_are_remembered():
     for gid in range(100):
         lost.lost(bytes([gid]), 1)
     assert lost.lost(bytes([99]), 3) == 1 and lost.lost(bytes([0]), 3) == 0  # 0 was forgotten
+
+
+def test_a_clock_published_besides_the_plant_is_named(ros):
+    """The pass planner times a pass from its node's clock only while /clock has no publisher
+    besides the plant (a forged clock 400 s ahead made the plant idle to it and changed the
+    part); ``foreign_publishers`` names the others, as the graph tells them."""
+    from rosgraph_msgs.msg import Clock
+
+    from hex_control.ros.infra.message_info import foreign_publishers
+    from ros_harness import wait_until
+
+    planner, plant, rogue = ros.node("pass_planner"), ros.node("plant"), ros.node("rogue")
+    plant.create_publisher(Clock, "/clock", 10)
+    wait_until(lambda: len(planner.get_publishers_info_by_topic("/clock")) == 1, 30.0, what="the plant's /clock")
+    assert foreign_publishers(planner, "/clock", "plant") == []
+    rogue.create_publisher(Clock, "/clock", 10)
+    wait_until(lambda: len(planner.get_publishers_info_by_topic("/clock")) == 2, 30.0, what="the rogue's /clock")
+    assert foreign_publishers(planner, "/clock", "plant") == ["/rogue"]
+    assert foreign_publishers(planner, "/clock", "/rogue") == ["/plant"]

@@ -69,6 +69,15 @@ def owner_publishes(node, topic: str, owner_node: str, *, latched: bool = False)
                for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic)))
 
 
+def foreign_publishers(node, topic: str, owner_node: str) -> list[str]:
+    """The publishers of ``topic`` besides ``owner_node`` (resolved as ``info_subscription``'s
+    owners are), by the names discovery gives them (one not yet named is left out)."""
+    [owner] = resolve_owner_nodes(owner_node, node.get_namespace())
+    return sorted({f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+                   for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic))
+                   if not info.node_name.startswith("_")} - {owner})
+
+
 def input_topic_name(topic: str, relative_to: str, namespace: str) -> str:
     """The name to subscribe ``topic`` by: as given (ROS resolves a relative name in the node's
     ``namespace``), or with ``relative_to`` 'parent' a relative name made absolute in the

@@ -22,7 +22,7 @@ from hex_control.kinematics import load_machine
 from hex_control.plant.lockstep import PLAN_AHEAD_S
 from hex_control.ros.infra import interfaces as ifc
 from hex_control.ros.infra.diagnostics import Diagnostics
-from hex_control.ros.infra.message_info import info_subscription
+from hex_control.ros.infra.message_info import foreign_publishers, info_subscription
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import in_background, run_node, wake, wall_timer
@@ -163,8 +163,14 @@ class PassPlannerNode(Node):
 
     def _publish(self, request: PassRequest, planned) -> None:
         plan, path = planned.plan, planned.path
-        start_s = pass_start_s(planned.contour_s, self.get_clock().now().nanoseconds * 1e-9,
-                               self.get_parameter("start_delay_s").value, self.get_parameter("plan_ahead_s").value)
+        clock_s = self.get_clock().now().nanoseconds * 1e-9
+        if strangers := foreign_publishers(self, "/clock", self.get_parameter("contour_owner").value):
+            clock_s = planned.contour_s  # a forged clock must not time the pass: its scan's (owned) stamp does
+            self.diagnostics.count("foreign_clock")
+            self.diagnostics.fault("clock_owner", f"/clock also from {', '.join(strangers)}: pass timed from its scan",
+                                   hold_s=FAULT_HOLD_S)
+        start_s = pass_start_s(planned.contour_s, clock_s, self.get_parameter("start_delay_s").value,
+                               self.get_parameter("plan_ahead_s").value)
         msg = ForceTrajectory(job_id=request.job_id, pass_index=request.pass_index,
                               feed_speed_mm_s=request.feed_mm_s, planned_cut_depth_mm=float(plan.planned_depth_mm),
                               path_start_s=-float(path.grind_start_s),
