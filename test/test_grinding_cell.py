@@ -130,6 +130,27 @@ def test_pass_monitor_reports_after_the_machine_settles_and_flags_lost_commands(
         ScheduledPass("job", 1, 3.0, 2.0, 5.0, 8.0)
 
 
+def test_a_pass_with_a_period_not_simulated_is_faulted_not_completed():
+    """A period whose simulation failed after its measurement (the tool beyond the forward
+    kinematics) was not ground: the pass it fell in is FAULTED with the reason; a failure
+    between passes touches none."""
+    cell = GrindingCell(BEAD, MODEL, ProcessVariation(0.0, 0.0))
+    monitor = PassMonitor(cell, command_timeout_s=0.1)
+    monitor.period_unsimulated()  # no pass runs
+    reports = []
+    for index, start in enumerate((1.0, 10.0)):
+        assert monitor.schedule(ScheduledPass("job", index, start, start + 1.0, start + 4.0, start + 7.0))
+        for k in range(round(start / PERIOD), round((start + 8.0) / PERIOD)):
+            t = k * PERIOD
+            if index == 0 and abs(t - 3.0) < 1e-9:
+                monitor.period_unsimulated()
+            report = monitor.on_period(t, 0.0, [0.0] * 6, PERIOD)
+            if report:
+                reports.append(report)
+    assert [r.status for r in reports] == ["faulted", "completed"]
+    assert "1 control period(s) not simulated" in reports[0].reason and reports[1].reason == ""
+
+
 def test_tool_locator_inverts_the_kinematics():
     config = load_pass_planner_config("pass_planner.yaml")
     machine, _ = load_machine(config_file("machines/nist_ingersoll.yaml"))

@@ -330,6 +330,8 @@ class PlantCore:
         except ValueError as error:  # the tool left the machine's forward kinematics
             self.events.count("simulation_errors")
             self.events.log("error", f"plant step failed: {error}")
+            if self.monitor is not None:
+                self.monitor.period_unsimulated()
             return
         if limiter is not None and limiter.limited > limited:
             self.events.count("limited_strut_commands")  # a strut command beyond the servos' speed or acceleration

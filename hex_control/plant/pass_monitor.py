@@ -92,6 +92,7 @@ class PassMonitor:
         self.running: ScheduledPass | None = None
         self.trace: PassTrace | None = None
         self.lost_commands_s = 0.0
+        self.unsimulated_periods = 0  # of the running pass: the part was not ground there
         self.reported: set[tuple[str, int]] = set()
 
     def schedule(self, scheduled: ScheduledPass) -> bool:
@@ -106,6 +107,12 @@ class PassMonitor:
         self.scheduled = scheduled
         return True
 
+    def period_unsimulated(self) -> None:
+        """A control period whose simulation failed after its measurement (the tool beyond
+        the forward kinematics): the running pass, if any, did not run as planned."""
+        if self.running is not None:
+            self.unsimulated_periods += 1
+
     def on_period(self, time_s: float, deflection_mm: float, strut_speeds_m_s, command_age_s: float,
                   *, force_n: float = math.nan, centre_x_mm: float = math.nan):
         """Call after every control period (true normal force N, disk centre mm along the
@@ -113,7 +120,7 @@ class PassMonitor:
         if self.scheduled is not None and time_s >= self.scheduled.path_start_s:
             self.running, self.scheduled = self.scheduled, None
             self.cell.start_pass(self.running.job_id, self.running.pass_index)
-            self.lost_commands_s = 0.0
+            self.lost_commands_s, self.unsimulated_periods = 0.0, 0
             plan = self.running.plan
             self.trace = PassTrace(plan, self.cell.control_period_s) if plan is not None else None
         p = self.running
@@ -136,9 +143,12 @@ class PassMonitor:
         reasons = [f"force commands lost for {self.lost_commands_s:.2f} s while grinding"] if aborted else []
         if not settled:
             reasons.append(f"machine not settled {self.max_settle_s:g} s after the reset")
+        if self.unsimulated_periods:
+            reasons.append(f"{self.unsimulated_periods} control period(s) not simulated (the tool beyond the "
+                           "forward kinematics)")
         restarted = self.interrupted == (p.job_id, p.pass_index, p.path_start_s)
         verdict = judge_pass(self.trace, measurement.measured_cut_depth_mm, measurement.expected_removal_factor,
                              restarted)
         self.trace = None
         return PassReport(measurement, aborted, "; ".join(reasons + list(verdict.reasons)), p.path_start_s, time_s,
-                          verdict.faulted)
+                          verdict.faulted or self.unsimulated_periods > 0)
