@@ -19,6 +19,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 
 from hex_control.config import config_file
+from hex_control.grinding.sdp import import_numerics
 from hex_control.grinding.sequencer import GoalRequest, PassReport, Sequencer, SequencerSettings
 from hex_control.ros.infra.diagnostics import ERROR, WARN, Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS
@@ -104,6 +105,7 @@ class SequencePlannerNode(Node):
         wall_timer(self, 1.0, lambda: self._do(self.core.tick(now())))
         wall_timer(self, 0.02, self._poll_solve)
         self._do(self.core.resume(now()))
+        in_background(import_numerics)  # before a goal comes, not in its first solve
 
     def _settings(self) -> SequencerSettings:
         return SequencerSettings.from_parameters(lambda name: self.get_parameter(name).value)
