@@ -326,7 +326,8 @@ def test_a_heavy_request_holds_up_neither_fk_test_pose_nor_the_tool_path(ros, ro
                 publisher.publish(tool_path(PATH[:300], 2))
             converted = any(len(t.points) == 300 for t in trajectories)
             busy = busy or (converted and not heavy[-1].done())  # converted while the IK service works
-        wait_until(heavy[-1].done, 60.0, what="the heavy requests")
+        # done, a future's callbacks are still only queued on the attacker's executor: wait for all six times
+        wait_until(lambda: len(answered_at) == len(heavy), 60.0, what="the heavy requests' answers")
     finally:
         attacker.close()
     heavy_s = np.median(np.diff(answered_at))
