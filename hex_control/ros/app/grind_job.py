@@ -261,8 +261,10 @@ class JobSession:
         result = self.spin_until(finished, timeout_s, "the job's result")
         job_result = self.observer.resolve_topic_name("sequence_planner/job_result")
 
-        def straggling():  # the last pass's result and contour, and the recording's copy of the job's result
+        def straggling():  # the last pass's result and contour, the recording's copy of the job's result, and
+            # each pass's command (a restarted planner's wait in the observer until discovery names its endpoints)
             return (len(record.results) < result.passes or max(record.contours) < len(record.results)
+                    or set(record.results) - set(record.commands)
                     or self.recorder is not None and not self.recorder.counts.get(job_result))
 
         end = time.monotonic() + 10.0  # they may come after the job's result; a bounded wait for them
