@@ -4,6 +4,7 @@ logic itself is tested in milliseconds in test_sequencer.py."""
 
 import dataclasses
 import math
+import re
 import signal
 import threading
 
@@ -259,7 +260,8 @@ def test_sigint_amid_a_long_solve_exits_at_once(ros, planner):
     process.process.send_signal(signal.SIGINT)
     assert process.process.wait(timeout=120.0) == 0
     assert planner_count(diagnostics, "solves") == 0  # it did not wait for the solve
-    assert "exiting amid 1 background computation(s): abandoned" in process.output()
+    # the solve, and the start's import of the solver's numerics if it still runs on a loaded machine
+    assert re.search(r"exiting amid [12] background computation\(s\): abandoned", process.output()), process.output()
 
 
 def test_restart_mid_job_resumes_without_repeating_a_pass(ros, planner, tmp_path):
