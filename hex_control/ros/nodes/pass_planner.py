@@ -156,21 +156,28 @@ class PassPlannerNode(Node):
             result = PassResult(job_id=request.job_id, pass_index=request.pass_index, status=PassResult.REJECTED,
                                 reason=verdict.reason, specific_energy_j_mm3=math.nan,
                                 part_quality=ifc.part_quality_message(None, math.nan))
-            result.header.stamp = self.get_clock().now().to_msg()
+            scan = self.core.scan
+            result.header.stamp = ifc.time_msg(self._plant_time_s(scan.stamp_s if scan is not None else 0.0))
             self.result_pub.publish(result)
         else:
             self._publish(request, verdict.planned)
 
+    def _plant_time_s(self, scanned_s: float) -> float:
+        """The node's sim clock (s), unless /clock has a publisher besides the plant: then
+        ``scanned_s``, a scan's owner-checked stamp (a forged clock times no pass and stamps
+        no result), counted and said in a WARN."""
+        strangers = foreign_publishers(self, "/clock", self.get_parameter("contour_owner").value)
+        if not strangers:
+            return self.get_clock().now().nanoseconds * 1e-9
+        self.diagnostics.count("foreign_clock")
+        self.diagnostics.fault("clock_owner", f"/clock also from {', '.join(strangers)}: plant time from the scan",
+                               hold_s=FAULT_HOLD_S)
+        return scanned_s
+
     def _publish(self, request: PassRequest, planned) -> None:
         plan, path = planned.plan, planned.path
-        clock_s = self.get_clock().now().nanoseconds * 1e-9
-        if strangers := foreign_publishers(self, "/clock", self.get_parameter("contour_owner").value):
-            clock_s = planned.contour_s  # a forged clock must not time the pass: its scan's (owned) stamp does
-            self.diagnostics.count("foreign_clock")
-            self.diagnostics.fault("clock_owner", f"/clock also from {', '.join(strangers)}: pass timed from its scan",
-                                   hold_s=FAULT_HOLD_S)
-        start_s = pass_start_s(planned.contour_s, clock_s, self.get_parameter("start_delay_s").value,
-                               self.get_parameter("plan_ahead_s").value)
+        start_s = pass_start_s(planned.contour_s, self._plant_time_s(planned.contour_s),
+                               self.get_parameter("start_delay_s").value, self.get_parameter("plan_ahead_s").value)
         msg = ForceTrajectory(job_id=request.job_id, pass_index=request.pass_index,
                               feed_speed_mm_s=request.feed_mm_s, planned_cut_depth_mm=float(plan.planned_depth_mm),
                               path_start_s=-float(path.grind_start_s),
