@@ -118,3 +118,36 @@ def test_on_a_feed_stage_the_tool_reaches_x_with_the_stage():
     joints_m = np.append(pose.lengths_mm[0], feed[0]) / 1000.0
     along, up = locator.centre_mm(joints_m)
     assert (along, up) == pytest.approx((37.0 + 75.0, 200.0 - 160.0), abs=1e-6)
+
+
+@pytest.mark.parametrize("machine_file", ["machines/pru3_feed.yaml", "machines/nist_ingersoll.yaml"])
+def test_a_whole_trajectory_is_checked_at_once_as_row_by_row(machine_file):
+    """The plant checks a pass's strut trajectory before it holds it: every row at once
+    (the 3-PRU head's forward kinematics row by row took 0.6 s of its executor for one pass).
+    A good trajectory passes; one row out of the stroke, the feed stage's travel or the tilt
+    limit is refused with that row named, where the row-by-row check refuses it too."""
+    from hex_control.kinematics import load_machine
+
+    machine, _ = load_machine(config_file(machine_file))
+    home = np.asarray(machine.home_pose, float)
+    path = home + np.outer(np.linspace(-1.0, 1.0, 400), [20.0, 0.0, 2.0, 0.0, 0.0, 0.0])
+    rows, reachable = machine.joint_positions_mm(path)
+    assert reachable.all()
+    machine.check_joint_trajectory_mm(rows)
+    for row in rows[::40]:
+        machine.check_joint_positions_mm(row)
+    bad = {"stroke": rows[0] + np.r_[1e4, np.zeros(rows.shape[1] - 1)]}
+    if rows.shape[1] == 4:  # the head: its feed stage's travel, and a tilt the sliders alone make
+        bad["feed"] = rows[0] + np.r_[np.zeros(3), 1e4]
+        # z 195 mm, beta 1.1 tilt limits: every slider within its stroke, the platform tilted beyond
+        sliders = inverse_kinematics(machine, [195.0, 0.0, 1.1 * machine.tilt_max_rad]).lengths_mm[0]
+        assert np.all((sliders > 5.0) & (sliders < 95.0))
+        bad["tilt"] = np.r_[sliders, rows[0, 3]]
+    messages = {"stroke": "stroke", "feed": "feed stage", "tilt": "tilt the platform"}
+    for what, row in bad.items():
+        with pytest.raises(ValueError, match=messages[what]):
+            machine.check_joint_positions_mm(row)
+        broken = rows.copy()
+        broken[217] = row
+        with pytest.raises(ValueError, match="^row 217: "):
+            machine.check_joint_trajectory_mm(broken)

@@ -82,6 +82,10 @@ class MachineKind(Protocol):
     def check_joint_positions_mm(self, positions_mm) -> None:
         """Raise ValueError unless these joint positions are within the machine's limits."""
 
+    def check_joint_trajectory_mm(self, positions_mm) -> None:
+        """:meth:`check_joint_positions_mm` of every row (n, joints) at once (a pass's whole
+        trajectory); the ValueError names the first row out of limits."""
+
     def forward_pose(self, positions_mm, guess, tolerance_mm: float,
                      max_iterations: int) -> tuple[np.ndarray, int, float]:
         """(tool pose (6,), iterations, residual mm) whose joints are at ``positions_mm``,

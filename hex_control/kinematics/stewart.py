@@ -108,6 +108,18 @@ class StewartGeometry(JointPositionsFromConstraints):
             i = int(outside[0])
             raise ValueError(f"strut {i} at {lengths[i]:.1f} mm is outside its stroke {low:g}..{high:g} mm")
 
+    def check_joint_trajectory_mm(self, positions_mm) -> None:
+        """:meth:`check_joint_positions_mm` of every row (n, 6) at once; the ValueError names
+        the first row out of the stroke."""
+        rows = np.asarray(positions_mm, float)
+        if rows.ndim != 2 or rows.shape[1] != 6:
+            raise ValueError(f"need rows of 6 strut lengths, got shape {rows.shape}")
+        low, high = self.strut_length_min_mm, self.strut_length_max_mm
+        outside = np.argwhere(~((rows >= low) & (rows <= high)))
+        if outside.size:
+            k, i = (int(v) for v in outside[0])
+            raise ValueError(f"row {k}: strut {i} at {rows[k, i]:.1f} mm is outside its stroke {low:g}..{high:g} mm")
+
     def forward_pose(self, positions_mm, guess, tolerance_mm: float = 1e-9,
                      max_iterations: int = 50) -> tuple[np.ndarray, int, float]:
         """Forward kinematics (:func:`forward_kinematics`) from ``guess``, or from the home

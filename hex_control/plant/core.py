@@ -126,13 +126,16 @@ class PlantCore:
     def __init__(self, settings: CoreSettings, sim: PlantSimulator, *, axis_limits: ForceAxisLimits,
                  outputs: PlantOutputs, events: Events, strut_names: list[str], monitor: PassMonitor | None = None,
                  check_struts: Callable[[list[float]], None] | None = None,
+                 check_trajectory: Callable[[object], None] | None = None,
                  clock: Callable[[], float] = time.monotonic):
         """``check_struts(lengths_m)`` raises ValueError for lengths outside the machine's
-        strokes; ``clock()`` is the wall time (s)."""
+        strokes, ``check_trajectory(rows_m)`` for any row of a trajectory (n, struts) outside
+        them (None: ``check_struts`` row by row); ``clock()`` is the wall time (s)."""
         self.settings, self.sim, self.axis_limits = settings, sim, axis_limits
         self.outputs, self.events, self.clock = outputs, events, clock
         self.strut_names, self.monitor = list(strut_names), monitor
         self.check_struts = check_struts or (lambda lengths_m: None)
+        self.check_trajectory = check_trajectory or self._check_rows
         self.lockstep = settings.mode == "lockstep"
         self.command_mm = settings.table_start_mm
         self.last_command_s = 0.0  # sim time of the latest force command
@@ -156,6 +159,10 @@ class PlantCore:
     def _measured(self, time_s: float, measured_force_n: float) -> None:
         self.outputs.measurement(time_s, measured_force_n)
         self.gate.sent(self.clock())
+
+    def _check_rows(self, rows_m) -> None:
+        for row in rows_m:
+            self.check_struts(row)
 
     def refuse(self, counter: str, text: str) -> None:
         """An input the node could not even convert: count it and say why."""
@@ -206,8 +213,7 @@ class PlantCore:
 
     def on_strut_trajectory(self, trajectory: StrutTrajectory) -> None:
         try:
-            for lengths in trajectory.lengths_m:
-                self.check_struts(lengths)
+            self.check_trajectory(trajectory.lengths_m)
         except ValueError as error:
             self.refuse("rejected_strut_trajectory", f"strut trajectory rejected: {error}")
             return

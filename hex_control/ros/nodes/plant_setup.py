@@ -154,7 +154,9 @@ def build_core(p, outputs, events) -> tuple[PlantCore, StoredWorkpiece | None]:
                             p("plan_ahead_s"))
     core = PlantCore(settings, sim, axis_limits=limits, outputs=outputs, events=events, strut_names=strut_names,
                      monitor=monitor, check_struts=lambda lengths_m: machine_geometry.check_joint_positions_mm(
-                         np.asarray(lengths_m) * 1000.0))
+                         np.asarray(lengths_m) * 1000.0),
+                     check_trajectory=lambda rows_m: machine_geometry.check_joint_trajectory_mm(
+                         np.asarray(rows_m) * 1000.0))
     return core, workpiece
 
 
