@@ -9,15 +9,13 @@ In: /grinding/pass_command, /grinding/contour (each from its owner). Out: /grind
 
 from __future__ import annotations
 
-import math
 import time
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
 from hex_control.grinding.config import load_pass_planner_config
-from hex_control.grinding.pass_session import PassRequest, PassSession, Scan, Verdict, checked_positions, pass_start_s
+from hex_control.grinding.pass_session import PassRequest, PassSession, Scan, Verdict, pass_start_s
 from hex_control.kinematics import load_machine
 from hex_control.plant.lockstep import PLAN_AHEAD_S
 from hex_control.ros.infra import interfaces as ifc
@@ -26,8 +24,14 @@ from hex_control.ros.infra.message_info import foreign_publishers, info_subscrip
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import in_background, run_node, wake, wall_timer
+from hex_control.ros.nodes.pass_planner_messages import (
+    force_trajectory_message,
+    reach_request,
+    rejected_result,
+    tool_path_message,
+)
 from hex_control_msgs.msg import Contour as ContourMsg
-from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath, ToolPose
+from hex_control_msgs.msg import ForceTrajectory, PassCommand, PassResult, ToolPath
 from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
@@ -137,10 +141,8 @@ class PassPlannerNode(Node):
             self.reach = None
             self.diagnostics.count("reachability_resent")
         elif self.reach is None and self.reach_client.service_is_ready():
-            roll, pitch, yaw = (float(a) for a in np.radians(self.config.frame.orientation_rpy_deg))
-            poses = [ToolPose(x_mm=float(x), y_mm=float(y), z_mm=float(z), roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
-                     for x, y, z in checked_positions(self.core.checking[1].path)]
-            self.reach, self.reach_sent_at = self.reach_client.call_async(TestPose.Request(poses=poses)), now
+            request = reach_request(self.core.checking[1].path, self.config.frame.orientation_rpy_deg)
+            self.reach, self.reach_sent_at = self.reach_client.call_async(request), now
             self.reach.add_done_callback(lambda _future: wake(self, self._poll))  # not at the next poll
 
     def _end(self, verdict: Verdict | None) -> None:
@@ -153,12 +155,9 @@ class PassPlannerNode(Node):
         if verdict.refused:
             self.get_logger().warn(f"pass {request.pass_index} of job {request.job_id!r} refused: {verdict.reason}")
             self._status(request, DiagnosticStatus.ERROR, verdict.reason, {})
-            result = PassResult(job_id=request.job_id, pass_index=request.pass_index, status=PassResult.REJECTED,
-                                reason=verdict.reason, specific_energy_j_mm3=math.nan,
-                                part_quality=ifc.part_quality_message(None, math.nan))
             scan = self.core.scan
-            result.header.stamp = ifc.time_msg(self._plant_time_s(scan.stamp_s if scan is not None else 0.0))
-            self.result_pub.publish(result)
+            self.result_pub.publish(rejected_result(request, verdict.reason,
+                                                    self._plant_time_s(scan.stamp_s if scan is not None else 0.0)))
         else:
             self._publish(request, verdict.planned)
 
@@ -175,24 +174,10 @@ class PassPlannerNode(Node):
         return scanned_s
 
     def _publish(self, request: PassRequest, planned) -> None:
-        plan, path = planned.plan, planned.path
         start_s = pass_start_s(planned.contour_s, self._plant_time_s(planned.contour_s),
                                self.get_parameter("start_delay_s").value, self.get_parameter("plan_ahead_s").value)
-        msg = ForceTrajectory(job_id=request.job_id, pass_index=request.pass_index,
-                              feed_speed_mm_s=request.feed_mm_s, planned_cut_depth_mm=float(plan.planned_depth_mm),
-                              path_start_s=-float(path.grind_start_s),
-                              path_end_s=float(path.time_s[-1] - path.grind_start_s),
-                              time_from_start_s=plan.time_s.tolist(), x_mm=plan.centre_x_mm.tolist(),
-                              normal_force_n=plan.force_n.tolist(),
-                              planned_final_contour=ifc.contour_to_message(
-                                  plan.final, request.job_id, request.pass_index + 1, planned.process.bead_width_mm))
-        msg.header.stamp = ifc.time_msg(start_s + path.grind_start_s)
-        msg.header.frame_id = "bead"
-        self.trajectory_pub.publish(msg)
-        orientation = np.broadcast_to(np.radians(self.config.frame.orientation_rpy_deg), path.positions_mm.shape)
-        self.path_pub.publish(ifc.tool_path_message(ifc.time_msg(start_s), request.job_id, request.pass_index,
-                                                path.time_s[1] - path.time_s[0],
-                                                np.hstack([path.positions_mm, orientation])))
+        self.trajectory_pub.publish(force_trajectory_message(request, planned, start_s))
+        self.path_pub.publish(tool_path_message(request, planned.path, start_s, self.config.frame.orientation_rpy_deg))
         self.get_logger().info(f"pass {request.pass_index} of job {request.job_id!r} planned: {planned.summary()}")
         self._status(request, DiagnosticStatus.WARN if planned.note else DiagnosticStatus.OK,
                      planned.note or "planned", planned.values)

@@ -20,13 +20,20 @@ from rclpy.node import Node
 
 from hex_control.config import config_file
 from hex_control.grinding.sdp import import_numerics
-from hex_control.grinding.sequencer import GoalRequest, PassReport, Sequencer, SequencerSettings
+from hex_control.grinding.sequencer import Sequencer, SequencerSettings
 from hex_control.ros.infra.diagnostics import ERROR, WARN, Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS
 from hex_control.ros.infra.message_info import info_subscription, owner_publishes
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
 from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
+from hex_control.ros.nodes.sequence_planner_messages import (
+    command_message,
+    goal_request,
+    pass_report,
+    planner_status,
+    stamp_ns,
+)
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
@@ -83,15 +90,16 @@ class SequencePlannerNode(Node):
         # the publisher of a result is not handed to the callback: a REJECTED one is confirmed
         # by the pass planner's refusal on its status instead (source None)
         for msg_type, topic, on, qos, name, owner in (
-                (PassResult, "grinding/pass_result", lambda m, source: core.on_result(_report(m), source, now()),
+                (PassResult, "grinding/pass_result", lambda m, source: core.on_result(pass_report(m), source, now()),
                  RESULTS, "result", ("plant", "pass_planner")),
                 (Contour, "grinding/contour", lambda m: core.on_scan(
                     m.job_id, m.pass_index, m.x_mm, m.z_mm, parent_mm=m.parent_mm, width_mm=m.bead_width_mm,
-                    stamp_ns=_ns(m.header.stamp), now_s=now()), LATCHED, "contour", "plant"),
-                (DiagnosticStatus, "pass_planner/status", lambda m: core.on_pass_planner_status(*_status(m), now()),
-                 LATCHED, "pass_planner_status", "pass_planner"),
+                    stamp_ns=stamp_ns(m.header.stamp), now_s=now()), LATCHED, "contour", "plant"),
+                (DiagnosticStatus, "pass_planner/status",
+                 lambda m: core.on_pass_planner_status(*planner_status(m), now()), LATCHED, "pass_planner_status",
+                 "pass_planner"),
                 (LoadPrediction, "load_predictor/pass/prediction", lambda m: core.on_prediction(
-                    m.prediction, _ns(m.header.stamp), now()), RESULTS, "prediction", "load_predictor/pass"),
+                    m.prediction, stamp_ns(m.header.stamp), now()), RESULTS, "prediction", "load_predictor/pass"),
                 (ForceTrajectory, "grinding/force_trajectory", lambda m: core.on_trajectory(
                     m.job_id, m.pass_index, m.normal_force_n, m.planned_cut_depth_mm), LATCHED, "trajectory",
                  "pass_planner")):
@@ -100,7 +108,7 @@ class SequencePlannerNode(Node):
                               name=name, owner_node=owner, with_source=msg_type is PassResult)
         self.server = ActionServer(self, GrindBead, "~/grind_bead", execute_callback=self._execute,
                                    goal_callback=self._on_goal, handle_accepted_callback=lambda handle: self._do(
-                                       self.core.accept(_goal(handle.request), handle, now())),
+                                       self.core.accept(goal_request(handle.request), handle, now())),
                                    cancel_callback=self._on_cancel)
         wall_timer(self, 1.0, lambda: self._do(self.core.tick(now())))
         wall_timer(self, 0.02, self._poll_solve)
@@ -113,10 +121,10 @@ class SequencePlannerNode(Node):
     def _do(self, out) -> None:
         """Send what the core decided."""
         for values, _ in out.commands:
-            self.command_pub.publish(_command(values))
+            self.command_pub.publish(command_message(values))
         for make in out.feedback:  # each new command's; the first says if the deadline can be met
             values = make()
-            feedback = GrindBead.Feedback(command=_command(values["command"]),
+            feedback = GrindBead.Feedback(command=command_message(values["command"]),
                                           **{k: v for k, v in values.items() if k != "command"})
             self.feedback_pub.publish(feedback)
             if (handle := self.core.token) is not None and handle.is_active:
@@ -141,7 +149,7 @@ class SequencePlannerNode(Node):
 
     def _on_goal(self, request) -> GoalResponse:
         try:
-            self.core.check_goal(_goal(request))  # a refusal is counted, logged and in /diagnostics
+            self.core.check_goal(goal_request(request))  # a refusal is counted, logged and in /diagnostics
             return GoalResponse.ACCEPT
         except ValueError:
             return GoalResponse.REJECT
@@ -166,32 +174,6 @@ class SequencePlannerNode(Node):
 class _Health(Diagnostics):  # /diagnostics, taking the core's fault levels ("warn", "error")
     def fault(self, name: str, message: str, level="warn", hold_s: float | None = None) -> None:
         super().fault(name, message, {"warn": WARN, "error": ERROR}.get(level, level), hold_s)
-
-
-def _command(values: dict) -> PassCommand:
-    command = PassCommand(**{k: v for k, v in values.items() if k != "stamp_ns"})
-    command.header.stamp.sec, command.header.stamp.nanosec = divmod(values["stamp_ns"], 10**9)
-    return command
-
-
-def _ns(stamp) -> int:
-    return stamp.sec * 1_000_000_000 + stamp.nanosec
-
-
-def _report(m: PassResult) -> PassReport:
-    return PassReport(m.job_id, m.pass_index, m.status, m.reason, m.measured_cut_depth_mm, m.removed_volume_mm3,
-                      m.duration_s, m.specific_energy_j_mm3, m.burn_detected, _ns(m.header.stamp))
-
-
-def _status(m: DiagnosticStatus) -> tuple:
-    values = {pair.key: pair.value for pair in m.values}
-    return values.get("job_id"), values.get("pass_index", ""), m.level == ERROR, m.message
-
-
-def _goal(g) -> GoalRequest:
-    return GoalRequest(g.job_id, tuple(g.bead.x_mm), tuple(g.bead.z_mm), tuple(g.bead.parent_mm),
-                       g.bead.bead_width_mm, g.bead_height_mm, g.bead_width_mm, g.bead_length_mm, g.deadline_s,
-                       g.charges_yaml, g.process_yaml)
 
 
 def main(args=None) -> int:
