@@ -61,11 +61,12 @@ def standing_wall_s(arrivals: list[tuple[float, float]], start: tuple[float, flo
     def holds(sim_start_s: float, sim_s: float) -> bool:
         return any(sim_start_s - 1e-6 <= point < sim_start_s + sim_s - 1e-6 for point in hold_points_s)
 
-    standing = [(wall, sim) for k, (wall, sim, s0) in enumerate(gaps) if k == 0 or holds(s0, sim)]
-    running = [wall / sim for k, (wall, sim, s0) in enumerate(gaps) if not (k == 0 or holds(s0, sim))]
+    standing, running = [], []
+    for k, (wall, sim, s0) in enumerate(gaps):
+        (standing if k == 0 or holds(s0, sim) else running).append((wall, sim))
     if not running:
         return 0.0
-    pace = statistics.median(running)
+    pace = statistics.median(wall / sim for wall, sim in running)
     return sum(max(0.0, wall - sim * pace) for wall, sim in standing)
 
 

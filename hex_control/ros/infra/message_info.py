@@ -59,12 +59,17 @@ class LostMessages:
         return 0 if last is None or sequence <= last else sequence - last - 1
 
 
+def full_name(info) -> str:
+    """The fully qualified node name of an endpoint's info (``/cell2/plant``)."""
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+
+
 def owner_publishes(node, topic: str, owner_node: str, *, latched: bool = False) -> bool:
     """Does ``owner_node`` (resolved as ``info_subscription``'s owners are) publish ``topic``
     (with ``latched``, keeping its last message for late joiners: what a transient-local
     reader matches)? Liveness by the graph that another process on the topic cannot fake."""
     [owner] = resolve_owner_nodes(owner_node, node.get_namespace())
-    return any(f"{info.node_namespace.rstrip('/')}/{info.node_name}" == owner
+    return any(full_name(info) == owner
                and (not latched or info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL)
                for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic)))
 
@@ -73,8 +78,7 @@ def foreign_publishers(node, topic: str, owner_node: str) -> list[str]:
     """The publishers of ``topic`` besides ``owner_node`` (resolved as ``info_subscription``'s
     owners are), by the names discovery gives them (one not yet named is left out)."""
     [owner] = resolve_owner_nodes(owner_node, node.get_namespace())
-    return sorted({f"{info.node_namespace.rstrip('/')}/{info.node_name}"
-                   for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic))
+    return sorted({full_name(info) for info in node.get_publishers_info_by_topic(node.resolve_topic_name(topic))
                    if not info.node_name.startswith("_")} - {owner})
 
 
@@ -112,7 +116,7 @@ def info_subscription(node, msg_type, topic: str, callback, qos, *, diagnostics,
         info = endpoints().get(gid)
         if info is None or info.node_name.startswith("_"):  # not yet told by discovery
             return None
-        return info.node_namespace.rstrip("/") + "/" + info.node_name
+        return full_name(info)
 
     owners = resolve_owner_nodes(owner_node, node.get_namespace())
     if with_source and owners is None:
