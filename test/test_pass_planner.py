@@ -12,10 +12,12 @@ from hex_control.grinding.model import GrindingProcess
 from hex_control.grinding.pass_plan import (
     Compliance,
     PlanningError,
+    SearchStart,
     execute_plan,
     force_for_power,
     plan_pass,
     plan_pass_static,
+    typical_search_start,
 )
 from hex_control.grinding.variation import ProcessVariation
 
@@ -292,6 +294,39 @@ def test_the_incremental_kernel_simulates_the_pass_the_old_one_did():
     grid = np.linspace(0.0, 80.0, 16001)
     assert np.max(np.abs(new.final.height_at(grid) - old.final.height_at(grid))) < 0.01
     assert new.final.x_mm.size < 0.6 * old.final.x_mm.size
+
+
+def test_a_typical_search_start_is_the_median_end_of_the_commonest_family():
+    ends = [SearchStart("capped", 0.80, 0.10), SearchStart("capped", 0.85, 0.30), SearchStart("level", 0.5, 0.0),
+            SearchStart("capped", 0.84, 0.18)]
+    assert typical_search_start(ends) == SearchStart("capped", 0.84, 0.18)
+    with pytest.raises(ValueError, match="no search ends"):
+        typical_search_start([])
+    for bad in ({"family": "deeper"}, {"guess_scale": 0.0}, {"guess_scale": math.nan}, {"intercept_load": 1.0}):
+        with pytest.raises(ValueError, match="search start"):
+            SearchStart(**{"family": "capped", "guess_scale": 0.8, **bad})
+
+
+def test_the_shipped_search_start_saves_first_passes_simulations_on_beads_it_was_not_taken_from():
+    """Issue 39 (the clock stands while a job's first pass is planned): the pass planner's
+    ``search_start`` (config/pass_planner.yaml, the typical end of 24 cold first searches:
+    ``hexctl bench search-start``, which checks it on 12 other first passes: 45 simulations
+    cold, 30 from it). Here two of those: fewer simulations each, and the plan's promises
+    kept -- force within F_max and no less than 98 % of it, the depth its simulation
+    removes, within 2 % of the cold search's depth."""
+    from hex_control.bench.grinding import first_searches
+    from hex_control.grinding.config import load_pass_planner_config
+
+    shipped = load_pass_planner_config("pass_planner.yaml").search_start
+    assert shipped is not None and shipped.family == "capped"
+    beads, feeds = ((0.9, 5), (1.2, 6)), (12.0,)
+    process = load_pass_planner_config("pass_planner.yaml").model.process
+    for cold, warm in zip(first_searches(beads, feeds), first_searches(beads, feeds, shipped)):
+        assert warm.simulations < cold.simulations, (warm.simulations, cold.simulations)
+        assert 0.98 * process.force_max_n <= np.max(warm.force_n) <= process.force_max_n
+        assert warm.planned_depth_mm == pytest.approx(cold.planned_depth_mm, rel=0.02)
+        area = process.bead_width_mm * 60.0
+        assert warm.simulation.removed_mm3 / area == pytest.approx(warm.planned_depth_mm, rel=0.02)
 
 
 def test_a_warm_started_search_keeps_the_plans_word_in_fewer_simulations():

@@ -3,6 +3,8 @@ the same process (``grinding.contact_reference``: the whole-face contact search 
 whole-contour truncation with np.unique / np.isin at every step; no warm start).
 
 - ``pass``: one 150 mm pass simulated at the default resolution.
+- ``search-start``: where a job's first guarded search starts (the pass planner's
+  ``search_start``), calibrated on cold searches, and what it saves on other beads.
 - ``pass-planning``: the demo's job replayed without ROS: ``hexctl demo``'s bead (300 mm,
   1 mm, seed 0) and its six pass commands (depth, feed, K1 as the sequence planner sent
   them on 2026-12-06), each planned by the pass planner's core and executed under force
@@ -103,6 +105,49 @@ def pass_planning(quick: bool) -> list[str]:
                  f"{total['old']['cpu_s'] / total['old']['simulations']:.2f} -> "
                  f"{total['new']['cpu_s'] / total['new']['simulations']:.2f} CPU s")
     return lines
+
+
+#: the first guarded searches ``search-start`` calibrates on (demo-like beads: 60 mm, end ramps
+#: 12 mm, ripple 0.05 mm; each asked the depth F_max cuts at its feed) and checks on
+SEARCH_START_BEADS = tuple((height, seed) for height in (0.8, 1.0) for seed in range(4))
+SEARCH_START_HELD_OUT = ((0.9, 5), (1.2, 6), (0.7, 7), (1.0, 8))
+SEARCH_START_FEEDS = (8.0, 12.0, 18.0)
+
+
+def first_searches(beads, feeds, start=None) -> list:
+    """Plans of each bead's first pass at F_max's depth for each feed (mm/s), their searches
+    started at ``start`` (None: cold); shipped pass planner config."""
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.grinding.pass_plan import plan_pass
+
+    config = load_pass_planner_config("pass_planner.yaml")
+    process = config.model.process
+    return [plan_pass(weld_bead(60.0, height, 12.0, ripple_mm=0.05, seed=seed), config.model,
+                      float(process.cut_depth_mm(process.force_max_n, feed)), feed, config.control,
+                      step_mm=config.step_mm, gains=config.gains, warm_start=start)
+            for height, seed in beads for feed in feeds]
+
+
+@benchmark("search-start")
+def search_start(quick: bool) -> list[str]:
+    """The pass planner's ``search_start`` (a job's first guarded search starts there): the
+    typical end of cold first searches, and what starting there saves on beads it was not
+    taken from."""
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.grinding.pass_plan import typical_search_start
+
+    feeds = SEARCH_START_FEEDS[::2] if quick else SEARCH_START_FEEDS
+    cold = first_searches(SEARCH_START_BEADS[:4] if quick else SEARCH_START_BEADS, feeds)
+    typical = typical_search_start([plan.warm_start for plan in cold if plan.warm_start])
+    shipped = load_pass_planner_config("pass_planner.yaml").search_start
+    held_cold = first_searches(SEARCH_START_HELD_OUT, feeds)
+    held_warm = first_searches(SEARCH_START_HELD_OUT, feeds, shipped)
+    removed = sum(w.planned_depth_mm for w in held_warm) / sum(c.planned_depth_mm for c in held_cold)
+    return [f"{len(cold)} cold first searches end at a typical {typical.family} guess scale "
+            f"{typical.guess_scale:.3f}, intercept {typical.intercept_load:.3f} (shipped: {shipped})",
+            f"{len(held_cold)} first passes on other beads: {sum(p.simulations for p in held_cold)} simulations "
+            f"cold, {sum(p.simulations for p in held_warm)} from the shipped start; "
+            f"depth planned {removed:.3f}x the cold searches'"]
 
 
 _STAMP = r"\[(?:INFO|WARN|ERROR)\] \[(\d+\.\d+)\]"

@@ -85,7 +85,8 @@ def _pass(args) -> int:
         weld_bead(args.length, args.height, ripple_mm=args.ripple, seed=args.seed)
     model = config.model
     plan = plan_pass(contour, model, args.depth, args.feed, args.control or config.control, step_mm=config.step_mm,
-                     gains=config.gains if args.control in (None, config.control) else None)
+                     gains=config.gains if args.control in (None, config.control) else None,
+                     warm_start=config.search_start)
     executed = {"executed, same coefficients": execute_plan(contour, model, plan)}
     for error in args.k1_error:
         process = dataclasses.replace(model.process,

@@ -18,7 +18,7 @@ import yaml
 from hex_control.config import CELL_SECTIONS, config_path
 from hex_control.grinding.dynamic import DiskModel
 from hex_control.grinding.model import GrindingProcess
-from hex_control.grinding.pass_plan import CONTROLS, Compliance
+from hex_control.grinding.pass_plan import CONTROLS, Compliance, SearchStart
 from hex_control.grinding.sdp import Charges, PlannerGrid, charges_from_dict
 from hex_control.grinding.stochastic import CutDepthModel
 from hex_control.grinding.tool_path import BeadFrame, PathTiming
@@ -81,10 +81,12 @@ class PassPlannerConfig:
     compliance: Compliance
     frame: BeadFrame
     path: PathTiming
+    search_start: SearchStart | None = None  # where a job's first guarded search starts (pass_plan)
 
 
 def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
-    known = {"cell", "process", "disk", "planner", "control", "gains", "step_mm", "compliance", "bead_frame", "path"}
+    known = {"cell", "process", "disk", "planner", "control", "gains", "step_mm", "compliance", "bead_frame", "path",
+             "search_start"}
     unknown = set(data) - known
     if unknown:
         raise ValueError(f"unknown pass planner sections {sorted(unknown)}")
@@ -104,10 +106,15 @@ def parse_pass_planner_config(data: dict) -> PassPlannerConfig:
     unknown = set(path) - {f.name for f in fields(PathTiming)}
     if unknown:
         raise ValueError(f"unknown path fields {sorted(unknown)}")
+    start = data.get("search_start")
+    if start is not None:
+        unknown = set(start) - {f.name for f in fields(SearchStart)} if isinstance(start, dict) else {"(not a map)"}
+        if unknown:
+            raise ValueError(f"unknown search_start fields {sorted(unknown)}")
     return PassPlannerConfig(model, planner, control, tuple(map(float, gains)) if gains else None,
                              float(data.get("step_mm", 0.1)), compliance,
                              BeadFrame(**{k: tuple(v) for k, v in (data.get("bead_frame") or {}).items()}),
-                             PathTiming(**path))
+                             PathTiming(**path), SearchStart(**start) if start is not None else None)
 
 
 def load_pass_planner_config(source, machine_document: dict | None = None) -> PassPlannerConfig:

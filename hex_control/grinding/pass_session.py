@@ -195,8 +195,9 @@ class PassSession:
     def __init__(self, config: PassPlannerConfig, contour_wait_s: float = 5.0, check_reach: bool = False, *,
                  contact_search=None, warm_start: bool = True):
         """``contact_search``, ``warm_start``: the pass planner's kernel and whether each
-        guarded search starts from the last one (``pass_plan.plan_pass``); the benchmark's
-        baseline passes the old kernel and no warm start."""
+        guarded search starts from the last one, the first from the config's ``search_start``
+        (``pass_plan.plan_pass``); the benchmark's baseline passes the old kernel and no warm
+        start."""
         self.config, self.contour_wait_s, self.check_reach = config, contour_wait_s, check_reach
         self.contact_search, self.warm_starts = contact_search, warm_start
         self.scan: Scan | None = None
@@ -206,9 +207,10 @@ class PassSession:
         self.checking: tuple[PassRequest, PlannedPass, float] | None = None  # (command, plan, since s)
         self.answered: set[tuple[str, int]] = set()
         self.stopped: set[tuple[str, int]] = set()  # stopped while being planned
-        # the last guarded search's end: the next search starts from it (pass_plan.plan_pass);
-        # written only in planned(), between plans, so the worker reads a settled value
-        self.warm_start: SearchStart | None = None
+        # the last guarded search's end: the next search starts from it (pass_plan.plan_pass), the
+        # first from the configured typical one; written only in planned(), between plans, so the
+        # worker reads a settled value
+        self.warm_start: SearchStart | None = config.search_start if warm_start else None
         self.planning_s = 0.0  # wall time spent planning, all commands (s): the clock stands still meanwhile
         self.plans = 0  # commands planned (plans and refusals)
 
