@@ -110,7 +110,7 @@ class Attack:
 
 
 @pytest.fixture
-def attack(ros_env, tmp_path):
+def attack(ros_env, tmp_path, request):
     made = []
 
     def make(**options) -> Attack:
@@ -119,6 +119,10 @@ def attack(ros_env, tmp_path):
 
     yield make
     for item in made:
+        if getattr(request.node, "call_failed", False):  # what each node said last: its counters name the cause
+            for name in sorted({status.name for array in item.diagnostics for status in array.status}):
+                status = item.status(name)
+                print(f"--- {name}: {status.message!r} {[(v.key, v.value) for v in status.values]}")
         item.close()
 
 
