@@ -305,6 +305,13 @@ def test_a_typical_search_start_is_the_median_end_of_the_commonest_family():
     for bad in ({"family": "deeper"}, {"guess_scale": 0.0}, {"guess_scale": math.nan}, {"intercept_load": 1.0}):
         with pytest.raises(ValueError, match="search start"):
             SearchStart(**{"family": "capped", "guess_scale": 0.8, **bad})
+    from hex_control.grinding.config import parse_pass_planner_config
+
+    for section, words in (({"family": "capped", "guess": 0.8}, "unknown search_start fields"),
+                           ([0.8], "unknown search_start fields"), ({"family": "capped", "guess_scale": -1}, "> 0")):
+        with pytest.raises(ValueError, match=words):
+            parse_pass_planner_config({"search_start": section})
+    assert parse_pass_planner_config({"search_start": None}).search_start is None
 
 
 def test_the_shipped_search_start_saves_first_passes_simulations_on_beads_it_was_not_taken_from():
