@@ -29,6 +29,46 @@ def test_a_dump_writes_every_threads_traceback_into_the_nodes_log_and_the_node_r
     assert codes == {"kinematics": 0}
 
 
+def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, tmp_path):
+    """Issue 39 (the suite's CPU; a graph starts on 2.2 CPU s instead of 3.8): the graph's
+    nodes are forked from one server that imported them (node_forks.py). A forked node logs
+    as its own process, its exit code comes back (a SIGKILL's -9, a Ctrl-C's 0), a restart
+    forks it again, and one whose server died is still followed: running until it is gone."""
+    import os
+    import signal
+
+    from hex_control.ros.app.node_forks import UNKNOWN_EXIT, ForkedNode
+
+    kinematics = [spec for spec in graph_nodes(tmp_path / "jobs") if spec.name == "kinematics"]
+    graph = NodeGraph(kinematics, tmp_path / "logs", env=ros_env)
+    graph.start()
+    try:
+        first = graph.processes["kinematics"]
+        assert isinstance(first, ForkedNode) and first.pid != graph.forks.server.pid
+        wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="the forked node")
+        graph.kill("kinematics")
+        assert first.returncode == -signal.SIGKILL
+        graph.start("kinematics")
+        again = graph.processes["kinematics"]
+        assert again.pid != first.pid and again.poll() is None
+        wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="the node forked again")
+        graph.forks.server.kill()  # the nodes are in sessions of their own: they run on
+        graph.forks.server.wait()
+        wait_until(lambda: graph.forks.server_gone, 10.0, what="the server's end read")
+        assert again.poll() is None
+        os.kill(again.pid, signal.SIGKILL)
+        assert again.wait(timeout=10.0) == UNKNOWN_EXIT
+    finally:
+        graph.stop()
+    assert graph.forks is None  # stopped with its graph
+    graph.start()
+    try:
+        wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="a second server's node")
+    finally:
+        codes = graph.stop()
+    assert codes == {"kinematics": 0}
+
+
 def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
     """The sequence planner resumes any unfinished job in its job directory: a demo run
     again into the same output after one was cut off moves that log aside and starts clean;

@@ -21,6 +21,7 @@ from pathlib import Path
 
 from hex_control.config import config_file, node_parameters
 from hex_control.grinding.run_files import validated_namespace
+from hex_control.ros.app.node_forks import ForkedNode, NodeForks
 
 SIM_TIME = ["-p", "use_sim_time:=true"]  # only where a node reads the clock: the rest run on stamps and wall timers
 #: the nodes that belong next to the hardware; the rest (planners, predictors) can run on a cell computer
@@ -49,10 +50,14 @@ class NodeSpec:
     module: str  # hex_control.ros.nodes.<module>
     arguments: tuple[str, ...]  # after --ros-args
 
+    @property
+    def module_path(self) -> str:
+        return f"hex_control.ros.nodes.{self.module}"
+
     def command(self) -> list[str]:
         # -P: not the working directory's hex_control (a checkout there would shadow the
         # installed one: a demo run from another clone started that clone's nodes)
-        return [sys.executable, "-P", "-m", f"hex_control.ros.nodes.{self.module}", "--ros-args", *self.arguments]
+        return [sys.executable, "-P", "-m", self.module_path, "--ros-args", *self.arguments]
 
 
 def graph_nodes(job_dir: Path, seed: int = 0, *, mode: str = "lockstep", plant_overrides: dict | None = None,
@@ -140,17 +145,28 @@ class NodeGraph:
         self.env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         self.env["PYTHONUNBUFFERED"] = "1"
         self.env["PYTHONFAULTHANDLER"] = "1"  # SIGABRT leaves every thread's traceback in the log
-        self.processes: dict[str, subprocess.Popen] = {}
+        self.processes: dict[str, subprocess.Popen | ForkedNode] = {}
         self.starts: dict[str, int] = {}
+        # nodes forked from one process that imported them (node_forks.py): a graph start pays
+        # the imports once; HEX_NODE_FORKS=0 starts each from its command line instead
+        self.forks_enabled = self.env.get("HEX_NODE_FORKS", "1") != "0"
+        self.forks: NodeForks | None = None
 
     def start(self, name: str | None = None) -> None:
         for spec in ([self.specs[name]] if name else self.specs.values()):
             count = self.starts.get(spec.name, 0)
-            log = open(self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log", "w")
+            log_path = self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log"
             prefix, extra = self.placement.get(spec.name, ([], {}))
-            self.processes[spec.name] = subprocess.Popen([*prefix, *spec.command()], env={**self.env, **extra},
-                                                         stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-            log.close()
+            if self.forks_enabled and not prefix:  # forked from the server that holds the imports
+                if self.forks is None:
+                    self.forks = NodeForks(sorted({s.module_path for s in self.specs.values()}), self.env)
+                self.processes[spec.name] = self.forks.start(spec.module_path, ["--ros-args", *spec.arguments],
+                                                             {**self.env, **extra}, log_path)
+            else:
+                with open(log_path, "w") as log:
+                    self.processes[spec.name] = subprocess.Popen(
+                        [*prefix, *spec.command()], env={**self.env, **extra}, stdout=log, stderr=subprocess.STDOUT,
+                        start_new_session=True)
             self.starts[spec.name] = count + 1
 
     def kill(self, name: str) -> None:
@@ -169,6 +185,9 @@ class NodeGraph:
         codes, deadline = {}, time.monotonic() + timeout_s
         for n in names:
             codes[n] = stop_hung(self.processes.pop(n), max(deadline - time.monotonic(), 0.0))
+        if not self.processes and self.forks is not None:  # a later start makes another
+            self.forks.close()
+            self.forks = None
         return codes
 
     def dump_tracebacks(self, timeout_s: float = 5.0) -> list[str]:

@@ -1,0 +1,206 @@
+"""A fork server for the graph's nodes: one process imports rclpy, numpy and the node
+modules once and forks each node from there, so a graph start pays its imports once, not
+once per node (they are about 60 % of the 5.3 CPU s a lock-step graph takes to be ready).
+
+The server is single-threaded (a fork beside other threads could copy a lock held
+mid-operation) and imports only: nothing of rclpy is initialised before a fork, so every
+node makes its own context and DDS participant, as a node started from its command line
+does. A fork runs its module's ``main()`` as the node's console script would, with its own
+environment, session, argv and log file. The protocol, one JSON object a line: the server reads
+``{"module", "argv", "env", "log"}`` on stdin and writes ``{"pid"}``, later
+``{"exit": pid, "code"}`` (the code as ``Popen.returncode`` gives it) on stdout.
+
+:class:`NodeForks` is the client: ``start`` returns a :class:`ForkedNode`, which answers
+as much of ``subprocess.Popen`` as the graph uses (pid, poll, wait, send_signal, kill).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+#: the modules every node imports first (the rest come with the node modules themselves)
+SHARED_IMPORTS = ("numpy", "rclpy", "rclpy.executors", "yaml")
+UNKNOWN_EXIT = -255  # the exit code of a node whose server died before it (not a signal's)
+
+
+def _run_fork(request: dict, server_fds: tuple[int, ...]) -> None:
+    """In the child: become the node (never returns)."""
+    code = 1
+    try:
+        os.setsid()
+        signal.set_wakeup_fd(-1)
+        for fd in server_fds:
+            os.close(fd)
+        log = os.open(request["log"], os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        os.dup2(log, 1)
+        os.dup2(log, 2)
+        os.close(log)
+        os.dup2(os.open(os.devnull, os.O_RDONLY), 0)
+        sys.stdout = open(1, "w", buffering=1, closefd=False)
+        sys.stderr = open(2, "w", buffering=1, closefd=False)
+        os.environ.clear()
+        os.environ.update(request["env"])
+        signal.signal(signal.SIGCHLD, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores it; a node stops on it
+        sys.argv = [request["module"], *request["argv"]]
+        result = sys.modules[request["module"]].main()  # as its console script runs it
+        code = result if isinstance(result, int) else 0
+    except SystemExit as stop:
+        code = stop.code if isinstance(stop.code, int) else (0 if stop.code is None else 1)
+    except KeyboardInterrupt:
+        code = 130
+    except BaseException:  # noqa: BLE001 -- the node's traceback goes to its log, as python -m would print it
+        import traceback
+
+        traceback.print_exc()
+    finally:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+
+
+def serve(modules: list[str]) -> None:
+    """The server's loop (``python -m hex_control.ros.app.node_forks MODULE...``)."""
+    import importlib
+
+    for name in (*SHARED_IMPORTS, *modules):
+        importlib.import_module(name)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the client's to pass on; the server serves on
+    wake_read, wake_write = os.pipe()
+    os.set_blocking(wake_write, False)
+    signal.set_wakeup_fd(wake_write)
+    signal.signal(signal.SIGCHLD, lambda *_: None)  # wakes the select through the pipe
+    children: set[int] = set()
+    out = sys.stdout
+    requests = os.fdopen(sys.stdin.fileno(), "rb", buffering=0)
+    pending = b""
+    while True:
+        ready, _, _ = select.select([requests, wake_read], [], [])
+        if wake_read in ready:
+            os.read(wake_read, 4096)
+        if requests in ready:
+            chunk = os.read(requests.fileno(), 65536)
+            if not chunk:
+                return  # the client is gone; the nodes live on, as Popen children would
+            pending += chunk
+            while b"\n" in pending:
+                line, pending = pending.split(b"\n", 1)
+                request = json.loads(line)
+                pid = os.fork()
+                if pid == 0:
+                    _run_fork(request, (wake_read, wake_write))
+                children.add(pid)
+                out.write(json.dumps({"pid": pid}) + "\n")
+                out.flush()
+        for pid in list(children):
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                children.discard(pid)
+                code = -os.WTERMSIG(status) if os.WIFSIGNALED(status) else os.WEXITSTATUS(status)
+                out.write(json.dumps({"exit": pid, "code": code}) + "\n")
+                out.flush()
+
+
+class ForkedNode:
+    """A node the server forked: the parts of ``subprocess.Popen`` the graph uses."""
+
+    def __init__(self, forks: NodeForks, pid: int):
+        self.forks, self.pid = forks, pid
+
+    @property
+    def returncode(self) -> int | None:
+        return self.poll()
+
+    def poll(self) -> int | None:
+        codes = self.forks.exit_codes
+        if self.pid not in codes and self.forks.server_gone:  # nobody reports its exit: is it there?
+            try:
+                os.kill(self.pid, 0)
+            except ProcessLookupError:
+                codes[self.pid] = UNKNOWN_EXIT
+        return codes.get(self.pid)
+
+    def wait(self, timeout: float | None = None) -> int:
+        end = None if timeout is None else time.monotonic() + timeout
+        with self.forks.changed:
+            while self.poll() is None:
+                left = None if end is None else end - time.monotonic()
+                if left is not None and left <= 0:
+                    raise subprocess.TimeoutExpired(f"node {self.pid}", timeout)
+                # the reader notifies every exit; a gone server does not, hence the slices
+                self.forks.changed.wait(min(left, 0.1) if left is not None else 0.1)
+        return self.poll()
+
+    def send_signal(self, number: int) -> None:
+        if self.returncode is None:
+            try:
+                os.kill(self.pid, number)
+            except ProcessLookupError:
+                pass
+
+    def kill(self) -> None:
+        self.send_signal(signal.SIGKILL)
+
+    def terminate(self) -> None:
+        self.send_signal(signal.SIGTERM)
+
+
+class NodeForks:
+    """The client of one fork server, started with ``env`` (the nodes' common environment)
+    and the node ``modules`` to import."""
+
+    def __init__(self, modules: list[str], env: dict):
+        self.server = subprocess.Popen([sys.executable, "-P", "-m", __name__, *modules], env=env,
+                                       stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1,
+                                       start_new_session=True)
+        self.exit_codes: dict[int, int] = {}
+        self.server_gone = False  # its stdout ended: exits are no longer reported
+        self.changed = threading.Condition()
+        self._started: list[int] = []
+        threading.Thread(target=self._read, name="node-forks", daemon=True).start()
+
+    def _read(self) -> None:
+        for line in self.server.stdout:
+            message = json.loads(line)
+            with self.changed:
+                if "exit" in message:
+                    self.exit_codes[message["exit"]] = message["code"]
+                else:
+                    self._started.append(message["pid"])
+                self.changed.notify_all()
+        with self.changed:
+            self.server_gone = True
+            self.changed.notify_all()
+
+    def start(self, module: str, argv: list[str], env: dict, log_path, timeout_s: float = 60.0) -> ForkedNode:
+        with self.changed:
+            known = len(self._started)
+            self.server.stdin.write(json.dumps({"module": module, "argv": list(argv), "env": env,
+                                                "log": str(log_path)}) + "\n")
+            self.server.stdin.flush()
+            if not self.changed.wait_for(lambda: len(self._started) > known or self.server_gone, timeout_s) \
+                    or len(self._started) == known:
+                raise RuntimeError(f"the fork server did not start {module} within {timeout_s:g} s "
+                                   f"(server exit code {self.server.poll()})")
+            return ForkedNode(self, self._started[known])
+
+    def close(self) -> None:
+        """Stop the server (the nodes it forked are the graph's to stop)."""
+        if self.server.poll() is None:
+            self.server.stdin.close()
+            try:
+                self.server.wait(timeout=10.0)
+            except subprocess.TimeoutExpired:
+                self.server.kill()
+                self.server.wait()
+
+
+if __name__ == "__main__":
+    serve(sys.argv[1:])
