@@ -158,7 +158,7 @@ class NodeGraph:
             log_path = self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log"
             prefix, extra = self.placement.get(spec.name, ([], {}))
             if self.forks_enabled and not prefix:  # forked from the server that holds the imports
-                if self.forks is None:
+                if self.forks is None or self.forks.server_gone:
                     self.forks = NodeForks(sorted({s.module_path for s in self.specs.values()}), self.env)
                 self.processes[spec.name] = self.forks.start(spec.module_path, ["--ros-args", *spec.arguments],
                                                              {**self.env, **extra}, log_path)

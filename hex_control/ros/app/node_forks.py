@@ -2,10 +2,13 @@
 modules once and forks each node from there, so a graph start pays its imports once, not
 once per node (they are about 60 % of the 5.3 CPU s a lock-step graph takes to be ready).
 
-The server is single-threaded (a fork beside other threads could copy a lock held
-mid-operation) and imports only: nothing of rclpy is initialised before a fork, so every
-node makes its own context and DDS participant, as a node started from its command line
-does. A fork runs its module's ``main()`` as the node's console script would, with its own
+The server runs no thread of its own and only imports: nothing of rclpy is initialised
+before a fork, so every node makes its own context and DDS participant, as a node started
+from its command line does. (Loading rclpy starts lttng-ust's two listener threads; the
+wheels have no ``liblttng-ust-fork.so`` to preload, so a fork while one of them holds its
+lock could leave tracing broken in that node: the project does not trace.) The protocol
+runs on a private copy of the server's stdout, fd 1 then being its stderr, so that nothing
+printed there can corrupt it. A fork runs its module's ``main()`` as the node's console script would, with its own
 environment, session, argv and log file. The protocol, one JSON object a line: the server reads
 ``{"module", "argv", "env", "log"}`` on stdin and writes ``{"pid"}``, later
 ``{"exit": pid, "code"}`` (the code as ``Popen.returncode`` gives it) on stdout.
@@ -34,6 +37,8 @@ def _run_fork(request: dict, server_fds: tuple[int, ...]) -> None:
     """In the child: become the node (never returns)."""
     code = 1
     try:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # one sent meanwhile comes now, in here
         os.setsid()
         signal.set_wakeup_fd(-1)
         for fd in server_fds:
@@ -42,28 +47,32 @@ def _run_fork(request: dict, server_fds: tuple[int, ...]) -> None:
         os.dup2(log, 1)
         os.dup2(log, 2)
         os.close(log)
-        os.dup2(os.open(os.devnull, os.O_RDONLY), 0)
+        null = os.open(os.devnull, os.O_RDONLY)
+        os.dup2(null, 0)
+        os.close(null)
         sys.stdout = open(1, "w", buffering=1, closefd=False)
         sys.stderr = open(2, "w", buffering=1, closefd=False)
         os.environ.clear()
         os.environ.update(request["env"])
         signal.signal(signal.SIGCHLD, signal.SIG_DFL)
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # the server ignores it; a node stops on it
         sys.argv = [request["module"], *request["argv"]]
         result = sys.modules[request["module"]].main()  # as its console script runs it
         code = result if isinstance(result, int) else 0
     except SystemExit as stop:
         code = stop.code if isinstance(stop.code, int) else (0 if stop.code is None else 1)
-    except KeyboardInterrupt:
-        code = 130
+    except KeyboardInterrupt:  # before the node's own handler: die of it, as python would
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGINT)
     except BaseException:  # noqa: BLE001 -- the node's traceback goes to its log, as python -m would print it
         import traceback
 
         traceback.print_exc()
     finally:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(code)
 
 
 def serve(modules: list[str]) -> None:
@@ -72,13 +81,13 @@ def serve(modules: list[str]) -> None:
 
     for name in (*SHARED_IMPORTS, *modules):
         importlib.import_module(name)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the client's to pass on; the server serves on
+    protocol = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)  # whatever prints goes to stderr, not into the protocol
     wake_read, wake_write = os.pipe()
     os.set_blocking(wake_write, False)
     signal.set_wakeup_fd(wake_write)
     signal.signal(signal.SIGCHLD, lambda *_: None)  # wakes the select through the pipe
     children: set[int] = set()
-    out = sys.stdout
     requests = os.fdopen(sys.stdin.fileno(), "rb", buffering=0)
     pending = b""
     while True:
@@ -93,19 +102,21 @@ def serve(modules: list[str]) -> None:
             while b"\n" in pending:
                 line, pending = pending.split(b"\n", 1)
                 request = json.loads(line)
+                # a SIGINT the client sends the moment it has the pid must reach the node,
+                # not the server's code in the child: held until the child can take it
+                signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
                 pid = os.fork()
                 if pid == 0:
-                    _run_fork(request, (wake_read, wake_write))
+                    _run_fork(request, (wake_read, wake_write, protocol.fileno()))
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
                 children.add(pid)
-                out.write(json.dumps({"pid": pid}) + "\n")
-                out.flush()
+                protocol.write(json.dumps({"pid": pid}) + "\n")
         for pid in list(children):
             done, status = os.waitpid(pid, os.WNOHANG)
             if done:
                 children.discard(pid)
                 code = -os.WTERMSIG(status) if os.WIFSIGNALED(status) else os.WEXITSTATUS(status)
-                out.write(json.dumps({"exit": pid, "code": code}) + "\n")
-                out.flush()
+                protocol.write(json.dumps({"exit": pid, "code": code}) + "\n")
 
 
 class ForkedNode:
@@ -113,19 +124,21 @@ class ForkedNode:
 
     def __init__(self, forks: NodeForks, pid: int):
         self.forks, self.pid = forks, pid
+        self._code: int | None = None
 
     @property
     def returncode(self) -> int | None:
         return self.poll()
 
     def poll(self) -> int | None:
-        codes = self.forks.exit_codes
-        if self.pid not in codes and self.forks.server_gone:  # nobody reports its exit: is it there?
-            try:
-                os.kill(self.pid, 0)
-            except ProcessLookupError:
-                codes[self.pid] = UNKNOWN_EXIT
-        return codes.get(self.pid)
+        if self._code is None:
+            self._code = self.forks.exit_codes.get(self.pid)
+            if self._code is None and self.forks.server_gone:  # nobody reports its exit: is it there?
+                try:
+                    os.kill(self.pid, 0)
+                except ProcessLookupError:
+                    self._code = UNKNOWN_EXIT
+        return self._code
 
     def wait(self, timeout: float | None = None) -> int:
         end = None if timeout is None else time.monotonic() + timeout
@@ -164,32 +177,43 @@ class NodeForks:
         self.server_gone = False  # its stdout ended: exits are no longer reported
         self.changed = threading.Condition()
         self._started: list[int] = []
+        self._starting = threading.Lock()  # one start at a time: the n-th pid answers the n-th request
         threading.Thread(target=self._read, name="node-forks", daemon=True).start()
 
     def _read(self) -> None:
-        for line in self.server.stdout:
-            message = json.loads(line)
+        try:
+            for line in self.server.stdout:
+                try:
+                    message = json.loads(line)
+                except ValueError:
+                    continue
+                with self.changed:
+                    if "exit" in message:
+                        self.exit_codes[message["exit"]] = message["code"]
+                    else:  # a pid used again is a new node: the old one's exit is not its own
+                        self.exit_codes.pop(message["pid"], None)
+                        self._started.append(message["pid"])
+                    self.changed.notify_all()
+        finally:
             with self.changed:
-                if "exit" in message:
-                    self.exit_codes[message["exit"]] = message["code"]
-                else:
-                    self._started.append(message["pid"])
+                self.server_gone = True
                 self.changed.notify_all()
-        with self.changed:
-            self.server_gone = True
-            self.changed.notify_all()
 
     def start(self, module: str, argv: list[str], env: dict, log_path, timeout_s: float = 60.0) -> ForkedNode:
-        with self.changed:
-            known = len(self._started)
+        open(log_path, "w").close()  # a log that cannot be made fails here, as Popen's would
+        with self._starting:
+            with self.changed:
+                known = len(self._started)
             self.server.stdin.write(json.dumps({"module": module, "argv": list(argv), "env": env,
                                                 "log": str(log_path)}) + "\n")
             self.server.stdin.flush()
-            if not self.changed.wait_for(lambda: len(self._started) > known or self.server_gone, timeout_s) \
-                    or len(self._started) == known:
-                raise RuntimeError(f"the fork server did not start {module} within {timeout_s:g} s "
-                                   f"(server exit code {self.server.poll()})")
-            return ForkedNode(self, self._started[known])
+            with self.changed:
+                self.changed.wait_for(lambda: len(self._started) > known or self.server_gone, timeout_s)
+                if len(self._started) == known:
+                    self.close()  # a pid that came later would have no owner
+                    raise RuntimeError(f"the fork server did not start {module} within {timeout_s:g} s "
+                                       f"(server exit code {self.server.poll()})")
+                return ForkedNode(self, self._started[known])
 
     def close(self) -> None:
         """Stop the server (the nodes it forked are the graph's to stop)."""
