@@ -153,26 +153,27 @@ def ready_line(node) -> str:
 
 
 def create_node(node_class):
-    """``node_class()``, or None once the reason it refused its parameters is printed on one
-    line (a value out of range, a bad choice, a missing file): not a traceback."""
+    """``node_class()``; if it refuses its parameters (a value out of range, a bad choice, a
+    missing file), the reason on one line, not a traceback, and the process ends with exit
+    code 2 at once: the half-made node is never torn down (freeing it with the exception
+    crashed rclpy once, a segmentation fault instead of the line's exit code 2)."""
     try:
         return node_class()
     except (ParameterException, ValueError, OSError) as exc:
-        print(f"{node_class.__name__}: {exc}", file=sys.stderr)
-        return None
+        print(f"{node_class.__name__}: {exc}", file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(2)
 
 
 def run_node(node_class, args=None) -> int:
     """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly. A node
-    that refuses its parameters exits with 2. A node with ``companions()`` (nodes serving its
+    that refuses its parameters exits with 2 (:func:`create_node`). A node with ``companions()`` (nodes serving its
     long requests) has each spun on an executor and a thread of its own, and its class's
     ``SWITCH_INTERVAL_S`` (if set) is the process's GIL switch interval."""
     stop = init(args)
     nodes, executors, workers = [], [], []
     try:
         node = create_node(node_class)
-        if node is None:
-            return 2
         nodes = [node, *getattr(node, "companions", list)()]
         if interval_s := getattr(node_class, "SWITCH_INTERVAL_S", None):
             sys.setswitchinterval(interval_s)
