@@ -79,6 +79,9 @@ class PassPlan:
                 "simulations": self.simulations}
 
 
+FAMILIES = ("level", "capped")  # the guard's two ways to re-plan a pass (plan_pass)
+
+
 @dataclass(frozen=True)
 class SearchStart:
     """Where the guard's search ended, as a warm start for the next pass's: the guard's
@@ -98,9 +101,6 @@ class SearchStart:
             raise ValueError(f"search start guess_scale must be finite and > 0, got {self.guess_scale!r}")
         if not (math.isfinite(self.intercept_load) and 0 <= self.intercept_load < 1):
             raise ValueError(f"search start intercept_load must be in [0, 1), got {self.intercept_load!r}")
-
-
-FAMILIES = ("level", "capped")
 
 
 def typical_search_start(ends: list[SearchStart]) -> SearchStart:

@@ -81,23 +81,23 @@ def serve(modules: list[str]) -> None:
     """The server's loop (``python -m hex_control.ros.app.node_forks MODULE...``)."""
     import importlib
 
+    protocol = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)  # whatever prints (an import, too) goes to stderr, not into the protocol
     for name in (*SHARED_IMPORTS, *modules):
         importlib.import_module(name)
-    protocol = os.fdopen(os.dup(1), "w", buffering=1)
-    os.dup2(2, 1)  # whatever prints goes to stderr, not into the protocol
     wake_read, wake_write = os.pipe()
     os.set_blocking(wake_write, False)
     signal.set_wakeup_fd(wake_write)
     signal.signal(signal.SIGCHLD, lambda *_: None)  # wakes the select through the pipe
     children: set[int] = set()
-    requests = os.fdopen(sys.stdin.fileno(), "rb", buffering=0)
+    requests = sys.stdin.fileno()
     pending = b""
     while True:
         ready, _, _ = select.select([requests, wake_read], [], [])
         if wake_read in ready:
             os.read(wake_read, 4096)
         if requests in ready:
-            chunk = os.read(requests.fileno(), 65536)
+            chunk = os.read(requests, 65536)
             if not chunk:
                 return  # the client is gone; the nodes live on, as Popen children would
             pending += chunk

@@ -167,9 +167,10 @@ def create_node(node_class):
 
 def run_node(node_class, args=None) -> int:
     """Init rclpy, spin ``node_class()`` until Ctrl-C / SIGTERM, shut down cleanly. A node
-    that refuses its parameters exits with 2 (:func:`create_node`). A node with ``companions()`` (nodes serving its
-    long requests) has each spun on an executor and a thread of its own, and its class's
-    ``SWITCH_INTERVAL_S`` (if set) is the process's GIL switch interval."""
+    that refuses its parameters exits with 2 (:func:`create_node`). A node with
+    ``companions()`` (nodes serving its long requests) has each spun on an executor and a
+    thread of its own, and its class's ``SWITCH_INTERVAL_S`` (if set) is the process's GIL
+    switch interval."""
     stop = init(args)
     nodes, executors, workers = [], [], []
     try:
