@@ -90,13 +90,20 @@ def test_an_online_identification_is_adopted_without_losing_count():
     assert core.predictor.prediction == pytest.approx(reference.prediction, abs=1e-12)
 
 
-def test_the_predictions_do_not_depend_on_how_soon_the_identification_ends(monkeypatch):
+def _predict_all(core, series) -> list[float]:
+    """Every sample's prediction, in order: measured, then the held ones resumed as each
+    identification ends (as the node does when its thread wakes it)."""
+    predictions = [p.step.prediction for value in series for p in core.measure(value).predictions]
+    while core.held:
+        wait([core._identification], timeout=10.0)
+        predictions += [p.step.prediction for p in core.resume().predictions]
+    return predictions
+
+
+def test_the_predictions_do_not_depend_on_how_soon_the_identification_ends():
     """The identifying thread finishing at once or 30 ms later (a loaded machine): the same
-    predictions, bit for bit (adopted when done, they differed, and a demo's skill with them).
-    Within the wait, that is: the wait is lifted here, so that the 80 ms identification
-    (which the burners behind a busy suite stretched past the 1 s wait) cannot make this
-    the test of ``identifications_late``, which the next test is."""
-    monkeypatch.setattr(load_predictor, "IDENTIFICATION_WAIT_S", 60.0)
+    predictions, bit for bit (adopted when done, they differed, and a demo's skill with
+    them); the samples due meanwhile are held, not the caller."""
     series = [float(v) for v in 40.0 + np.cumsum(np.random.default_rng(4).normal(0, 0.3, 400))]
     settings = LoadPredictorSettings(identify_window=120, identify_every=40)
 
@@ -105,17 +112,45 @@ def test_the_predictions_do_not_depend_on_how_soon_the_identification_ends(monke
         threading.Timer(0.03, lambda: future.set_result(function(*args))).start()
         return future
 
-    runs = []
-    for submit in (None, late):
-        core = LoadPredictorCore(settings, submit=submit) if submit else LoadPredictorCore(settings)
-        runs.append([core.measure(value).step.prediction for value in series])
-    assert runs[0] == runs[1]
+    at_once, held = _predict_all(LoadPredictorCore(settings), series), LoadPredictorCore(settings, submit=late)
+    outs = [held.measure(value) for value in series[:100]]
+    assert [len(o.predictions) for o in outs] == [1] * 89 + [0] * 11  # due at index 89 (50 + 40 - 1)
+    assert len(held.held) == 11 and not held.resume().predictions  # still running: still held
+    assert [p.step.prediction for o in outs for p in o.predictions] + _predict_all(held, series[100:]) == at_once
 
 
-def test_an_identification_later_than_its_wait_is_counted_and_taken_up_when_it_comes(monkeypatch):
-    """A window too large for its interval (or a machine far too slow) holds the sample due to
-    adopt it IDENTIFICATION_WAIT_S at most, once; the model comes in when the thread ends."""
-    monkeypatch.setattr(load_predictor, "IDENTIFICATION_WAIT_S", 0.02)
+def test_held_samples_keep_their_order_and_tags_refusals_do_not_wait_and_a_reset_drops_them():
+    release = threading.Event()
+
+    def stalled(function, *args):
+        future = Future()
+        threading.Thread(target=lambda: (release.wait(10.0), future.set_result(function(*args)))).start()
+        return future
+
+    core = LoadPredictorCore(LoadPredictorSettings(identify_window=60, identify_every=20), submit=stalled)
+    for k in range(75):
+        core.measure(40.0 + 0.1 * k, k, tag=k)
+    assert [tag for _, _, tag in core.held] == list(range(69, 75))
+    assert core.measure(math.nan).counts == {"rejected_nonfinite": 1}  # refused at once, not held
+    release.set()
+    wait([core._identification], timeout=10.0)
+    release.clear()  # the next identification (submitted as the first is adopted) stalls
+    out = core.resume()
+    assert [p.tag for p in out.predictions] == list(range(69, 75)) and out.counts["identifications"] == 1
+    assert [p.sample_count for p in out.predictions] == list(range(70, 76))
+    assert all(p.model == out.predictions[0].model != LoadPredictorSettings().model() for p in out.predictions)
+    for k in range(75, 100):
+        core.measure(40.0, k)
+    assert len(core.held) == 11  # due at 89, 20 samples after the one that adopted the first
+    assert core.reset("clock jumped back").counts == {"resets": 1, "held_samples_dropped": 11} and not core.held
+    release.set()
+
+
+def test_an_identification_later_than_its_hold_is_counted_and_taken_up_when_it_comes(monkeypatch):
+    """A window too large for its interval (or a machine far too slow) holds at most
+    MAX_HELD_SAMPLES samples, once; then they are predicted with the model in use and the
+    identification comes in at the first sample after its thread ends."""
+    monkeypatch.setattr(load_predictor, "MAX_HELD_SAMPLES", 10)
     release = threading.Event()
 
     def stalled(function, *args):
@@ -126,7 +161,8 @@ def test_an_identification_later_than_its_wait_is_counted_and_taken_up_when_it_c
     series = [float(v) for v in 40.0 + np.cumsum(np.random.default_rng(5).normal(0, 0.3, 200))]
     core = LoadPredictorCore(LoadPredictorSettings(identify_window=60, identify_every=20), submit=stalled)
     outs = [core.measure(value) for value in series[:100]]
-    assert sum(o.counts.get("identifications_late", 0) for o in outs) == 1  # waited once, not at every sample
+    assert sum(o.counts.get("identifications_late", 0) for o in outs) == 1  # once, not at every sample
+    assert sum(len(o.predictions) for o in outs) == 100 and not core.held
     assert not any(o.counts.get("identifications") for o in outs)
     release.set()
     assert wait([core._identification], timeout=10.0).done  # the thread ends: a condition, not a sleep

@@ -2,18 +2,21 @@
 predict the next sample (seed 000 part 2, eqs 6.2-6.7), re-identify the model online or
 tell a drift (:mod:`hex_control.estimation.drift`), and say what to count and report.
 
-Plain in, plain out: :meth:`LoadPredictorCore.measure` takes a value (load unit) and its
-stamp (ns, or None for a message without a header) and returns an :class:`Outcome`: the
-prediction step to publish, or why the value was refused, with the diagnostics counters to
-add, the values to show and the lines to log. Identification runs through ``submit`` (the
-node passes a worker thread's; by default it runs at once), so filtering never waits for it.
+Plain in, plain out: :meth:`LoadPredictorCore.measure` takes a value (load unit), its
+stamp (ns, or None for a message without a header) and a tag of the caller's, and returns an
+:class:`Outcome`: the predictions to publish, or why the value was refused, with the
+diagnostics counters to add, the values to show and the lines to log. Identification runs
+through ``submit`` (the node passes a background thread's; by default it runs at once). A
+sample due to adopt an identification still running is held, with those after it, and
+:meth:`LoadPredictorCore.resume` predicts them once it is in: the predictions never depend
+on how busy the machine is, only when they are published does.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from concurrent.futures import Future, wait
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 
 from hex_control.estimation.drift import DriftingLoadPredictor
@@ -23,10 +26,11 @@ from hex_control.estimation.kalman import OneStepPredictor, PredictionStep
 
 #: samples before the first online identification (the window may still be filling)
 MIN_IDENTIFICATION_SAMPLES = 50
-#: wall s the sample due to adopt an identification waits for it, at most once: beyond, the model
-#: is taken up when it comes (counted ``identifications_late``: the predictions then depend on
-#: the load), so a window too large for its interval cannot hold the executor for long
-IDENTIFICATION_WAIT_S = 1.0
+#: samples held at most while an identification due to be adopted still runs (10 s at 200 Hz; the
+#: shipped 1000-sample window is identified in about 70 ms quiet, 1-2 s beside two CPU burners):
+#: beyond, they are predicted with the model in use and the identification is taken up when it
+#: comes (counted ``identifications_late``: the predictions then depend on the load)
+MAX_HELD_SAMPLES = 2000
 #: the model's values: set live (or by the online identification); the rest at start-up
 MODEL_VALUES = ("a", "process_variance", "measurement_variance", "initial_variance", "mean")
 
@@ -60,17 +64,34 @@ class LoadPredictorSettings:
                                 None if initial < 0 else initial)
 
 
+@dataclass(frozen=True)
+class Prediction:
+    """One sample predicted: its ``step``, the ``model`` and ``mean`` (load unit) it was
+    predicted with, the predictor's ``sample_count`` after it, and the caller's ``tag``."""
+
+    step: PredictionStep
+    model: GaussMarkovModel
+    mean: float
+    sample_count: int
+    tag: object = None
+
+
 @dataclass
 class Outcome:
-    """What one input did: ``step`` to publish (None if refused or repeated), diagnostics
-    ``counts`` to add, ``values`` to set, a refusal's ``fault`` text (the node holds a WARN),
-    and ``log`` lines (level, text)."""
+    """What one input (or an identification's end) did: the ``predictions`` to publish, in
+    order (none if refused, repeated or held), diagnostics ``counts`` to add, ``values`` to
+    set, a refusal's ``fault`` text (the node holds a WARN), and ``log`` lines (level, text)."""
 
-    step: PredictionStep | None = None
+    predictions: list[Prediction] = field(default_factory=list)
     counts: dict[str, int] = field(default_factory=dict)
     values: dict[str, str] = field(default_factory=dict)
     fault: str = ""
     log: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def step(self) -> PredictionStep | None:
+        """The last prediction's step; None without one."""
+        return self.predictions[-1].step if self.predictions else None
 
     def count(self, name: str, n: int = 1) -> None:
         self.counts[name] = self.counts.get(name, 0) + n
@@ -97,7 +118,8 @@ class LoadPredictorCore:
         self.identify_every = settings.identify_every or max(settings.identify_window // 4, 1)
         self._since_identification = self.identify_every  # identify as soon as possible
         self._identification: Future | None = None
-        self._waited_for: Future | None = None  # the identification the sample due to adopt it waited for
+        self._late: Future | None = None  # the identification no longer waited for (MAX_HELD_SAMPLES)
+        self.held: deque[tuple[float, int | None, object]] = deque()  # (value, stamp ns, tag) waiting for it
         self.drifting = False  # the drift probability is above one half
         self.last_stamp_ns: int | None = None
 
@@ -129,13 +151,17 @@ class LoadPredictorCore:
 
     # -- filtering ----------------------------------------------------------------------
     def reset(self, reason: str) -> Outcome:
-        """Forget the filter state (not the model); the next sample starts afresh."""
+        """Forget the filter state (not the model) and the samples held; the next sample starts
+        afresh."""
         self.predictor.reset()
         self.drifting = False
         self.window.clear()
         self.last_stamp_ns = None
         out = Outcome(log=[("warning", f"predictor reset: {reason}")])
         out.count("resets")
+        if self.held:
+            out.count("held_samples_dropped", len(self.held))
+            self.held.clear()
         return out
 
     @staticmethod
@@ -144,10 +170,10 @@ class LoadPredictorCore:
         out.count(counter)
         return out
 
-    def measure(self, value, stamp_ns: int | None = None) -> Outcome:
-        """One measured load (``stamp_ns`` of its header, None without one): refused if it is
-        not a finite number inside [valid_min, valid_max]; the same stamp again is the same
-        measurement repeated (counted, not stepped); a stamp before the last resets first."""
+    def measure(self, value, stamp_ns: int | None = None, tag: object = None) -> Outcome:
+        """One measured load (``stamp_ns`` of its header, None without one; ``tag`` comes back
+        with its prediction): refused if it is not a finite number inside [valid_min,
+        valid_max]; else predicted in its turn, after the samples held before it (if any)."""
         try:
             value = float(value)
         except (TypeError, ValueError):
@@ -157,26 +183,43 @@ class LoadPredictorCore:
         valid = (self.settings.valid_min, self.settings.valid_max)
         if not valid[0] <= value <= valid[1]:
             return self.refuse("rejected_out_of_range", f"rejected measurement {value} outside {valid}")
+        self.held.append((value, stamp_ns, tag))
+        return self.resume()
+
+    def resume(self) -> Outcome:
+        """Predict the samples held, in order, up to one due to adopt an identification that
+        still runs (the node calls this again when it ends)."""
         out = Outcome()
+        while self.held:
+            if self._waiting(out):
+                break
+            self._predict(*self.held.popleft(), out)
+        return out
+
+    def _predict(self, value: float, stamp_ns: int | None, tag: object, out: Outcome) -> None:
+        """One sample: the same stamp again is the same measurement repeated (counted, not
+        stepped); a stamp before the last resets first."""
         if stamp_ns is not None:
             if stamp_ns == self.last_stamp_ns:  # a restarted publisher's repeat
                 out.count("repeated_measurements")
-                return out
+                return
             if self.last_stamp_ns is not None and stamp_ns < self.last_stamp_ns:
                 reset = self.reset("measurement stamp went back in time")
-                out.counts, out.log = reset.counts, reset.log
+                for name, n in reset.counts.items():
+                    out.count(name, n)
+                out.log += reset.log
             self.last_stamp_ns = stamp_ns
         self._adopt_identification(out)
-        out.step = self.predictor.step(value)
+        step = self.predictor.step(value)
+        out.predictions.append(Prediction(step, self.predictor.model, self.predictor.mean,
+                                          self.predictor.sample_count, tag))
         self.window.append(value)
         self._schedule_identification()
         out.count("samples")
         if isinstance(self.predictor, DriftingLoadPredictor):
-            self._report_drift(out)
-        return out
+            self._report_drift(out, step)
 
-    def _report_drift(self, out: Outcome) -> None:
-        step = out.step
+    def _report_drift(self, out: Outcome, step) -> None:
         out.values["drift_probability"] = f"{step.drift_probability:.3f}"
         drifting = step.drift_probability > 0.5
         if drifting != self.drifting:
@@ -196,26 +239,34 @@ class LoadPredictorCore:
             self._since_identification = 0
             self._identification = self._submit(identify, list(self.window))
 
+    def _due(self) -> bool:
+        """The next sample is the one to adopt the pending identification."""
+        return self._identification is not None and self._since_identification + 1 >= self.identify_every
+
+    def _waiting(self, out: Outcome) -> bool:
+        """The next held sample waits for the identification it is due to adopt; past
+        MAX_HELD_SAMPLES no longer (counted once, logged)."""
+        future = self._identification
+        if not self._due() or future.done() or future is self._late:
+            return False
+        if len(self.held) <= MAX_HELD_SAMPLES:
+            return True
+        self._late = future
+        out.count("identifications_late")
+        out.log.append(("warning", f"identification still running {MAX_HELD_SAMPLES} samples after it was due: "
+                                   "its model is taken up when it comes"))
+        return False
+
     def _adopt_identification(self, out: Outcome) -> None:
         """The pending identification's model, adopted at the sample that submits the next one
         (``identify_every`` samples after it), whatever the load: a run's predictions do not
         depend on how soon the identifying thread finished (adopted when done, a demo's skill
-        fell from 0.23 to -0.08 on a loaded machine). It waits only for an identification that
-        took longer than that interval (one of 500 samples takes about 60 ms, the shipped
-        interval is 250 samples, 1.25 s at 200 Hz), and at most IDENTIFICATION_WAIT_S."""
+        fell from 0.23 to -0.08 on a loaded machine). One that took longer holds that sample
+        and the ones after it (:meth:`resume`); one late past MAX_HELD_SAMPLES is taken up at
+        the first sample after it ends."""
         future = self._identification
-        if future is None or self._since_identification + 1 < self.identify_every:
+        if not self._due() or not future.done():
             return
-        if not future.done():
-            if self._waited_for is future:  # waited once: taken up when it comes
-                return
-            self._waited_for = future
-            wait([future], timeout=IDENTIFICATION_WAIT_S)
-            if not future.done():
-                out.count("identifications_late")
-                out.log.append(("warning", f"identification still running {IDENTIFICATION_WAIT_S:g} s after it "
-                                           "was due: its model is taken up when it comes"))
-                return
         self._identification = None
         try:
             result = future.result()

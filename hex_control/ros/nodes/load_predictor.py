@@ -17,13 +17,12 @@ Topics:
 The behaviour is :class:`hex_control.estimation.load_predictor.LoadPredictorCore`; this
 node reads its parameters into the core's settings, converts messages and spins. The model
 (a, W, V, mean) is fixed by parameters or, with ``identify_window`` > 0, re-identified online
-in a worker thread; with ``drift_rate_variance`` > 0 the predictor is an IMM that tells a
+in a background thread, the samples due after it held until it is in (the core's ``resume``); with ``drift_rate_variance`` > 0 the predictor is an IMM that tells a
 drifting load (a disk that dulls) from a steady one (:mod:`hex_control.estimation.drift`).
 """
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import fields
 
 from rcl_interfaces.msg import SetParametersResult
@@ -31,6 +30,7 @@ from rclpy.clock import JumpThreshold
 from rclpy.duration import Duration
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from std_msgs.msg import Header
 
 from hex_control.estimation.load_predictor import MODEL_VALUES, LoadPredictorCore, LoadPredictorSettings, Outcome
 from hex_control.grinding.config import cell_value
@@ -40,7 +40,7 @@ from hex_control.ros.infra.message_info import info_subscription, input_topic_na
 from hex_control.ros.infra.messages import check_numeric_field, get_field, message_class
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
-from hex_control.ros.infra.runtime import run_node
+from hex_control.ros.infra.runtime import in_background, run_node
 from hex_control_msgs.msg import LoadPrediction
 
 REJECTION_WARN_S = 10.0  # a rejected input keeps the node at WARN this long (wall s) after the last
@@ -100,9 +100,8 @@ class LoadPredictorNode(Node):
         self._quantity = p("quantity").value
 
         self.diagnostics = Diagnostics(self, p("diagnostics_period_s").value)
-        self._identifier = ThreadPoolExecutor(max_workers=1, thread_name_prefix="identify")
         settings = LoadPredictorSettings(**{f.name: p(f.name).value for f in fields(LoadPredictorSettings)})
-        self.core = LoadPredictorCore(settings, self._quantity, self._identifier.submit)
+        self.core = LoadPredictorCore(settings, self._quantity, self._identify)
         for key, value in self.core.model_values().items():
             self.diagnostics.set(key, value)
 
@@ -159,27 +158,28 @@ class LoadPredictorNode(Node):
         except (TypeError, ValueError):
             self._report(self.core.refuse("rejected_malformed", f"{self._input_field} is not a number"))
             return
-        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec if self._has_header else None
-        out = self.core.measure(value, stamp_ns)
-        self._report(out)
-        step = out.step
-        if step is None:
-            return
-        model, predictor = self.core.predictor.model, self.core.predictor
-        result = LoadPrediction(
-            quantity=self._quantity, measurement=step.measurement, mean=predictor.mean, prediction=step.prediction,
-            prediction_variance=step.prediction_variance, innovation=step.innovation,
-            innovation_variance=step.innovation_variance, gain=step.gain, model_a=model.a,
-            model_w=model.process_variance, model_v=model.measurement_variance, sample_count=predictor.sample_count,
-            drift_probability=getattr(step, "drift_probability", 0.0),
-            drift_per_sample=getattr(step, "drift_per_sample", 0.0))
-        result.header.stamp = msg.header.stamp if self._has_header else self.get_clock().now().to_msg()
-        result.header.frame_id = msg.header.frame_id if self._has_header else ""
-        self._publisher.publish(result)
+        if self._has_header:
+            stamp_ns, header = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec, msg.header
+        else:
+            stamp_ns, header = None, Header(stamp=self.get_clock().now().to_msg())
+        self._publish(self.core.measure(value, stamp_ns, tag=header))
 
-    def destroy_node(self):
-        self._identifier.shutdown(wait=False, cancel_futures=True)
-        return super().destroy_node()
+    def _identify(self, function, *args):
+        """The core's ``submit``: in a background thread, the held samples resumed when it ends."""
+        return in_background(function, *args, then=(self, lambda: self._publish(self.core.resume())))
+
+    def _publish(self, out: Outcome) -> None:
+        """Report ``out`` and publish its predictions, each stamped as its measurement."""
+        self._report(out)
+        for p in out.predictions:
+            step, model = p.step, p.model
+            self._publisher.publish(LoadPrediction(
+                header=p.tag, quantity=self._quantity, measurement=step.measurement, mean=p.mean,
+                prediction=step.prediction, prediction_variance=step.prediction_variance,
+                innovation=step.innovation, innovation_variance=step.innovation_variance, gain=step.gain,
+                model_a=model.a, model_w=model.process_variance, model_v=model.measurement_variance,
+                sample_count=p.sample_count, drift_probability=getattr(step, "drift_probability", 0.0),
+                drift_per_sample=getattr(step, "drift_per_sample", 0.0)))
 
 
 def main(args=None) -> int:
