@@ -119,7 +119,7 @@ def test_the_predictions_do_not_depend_on_how_soon_the_identification_ends():
     assert [p.step.prediction for o in outs for p in o.predictions] + _predict_all(held, series[100:]) == at_once
 
 
-def test_held_samples_keep_their_order_and_tags_refusals_do_not_wait_and_a_reset_drops_them():
+def test_held_samples_keep_their_order_tags_and_stamp_checks_refusals_do_not_wait_a_reset_drops_them():
     release = threading.Event()
 
     def stalled(function, *args):
@@ -142,7 +142,19 @@ def test_held_samples_keep_their_order_and_tags_refusals_do_not_wait_and_a_reset
     for k in range(75, 100):
         core.measure(40.0, k)
     assert len(core.held) == 11  # due at 89, 20 samples after the one that adopted the first
-    assert core.reset("clock jumped back").counts == {"resets": 1, "held_samples_dropped": 11} and not core.held
+    core.measure(40.0, 3)  # back in time, while held: resets in its turn and drops nothing after it
+    core.measure(40.0, 4)
+    assert [stamp for _, stamp, _ in core.held][-3:] == [99, 3, 4]
+    release.set()
+    wait([core._identification], timeout=10.0)
+    release.clear()
+    out = core.resume()
+    assert len(out.predictions) == 13 and out.counts["resets"] == 1 and core.predictor.sample_count == 2
+    for k in range(5, 30):
+        core.measure(40.0, k)
+    held = list(core.held)
+    assert len(held) == 18  # the identification submitted at 89 is due 20 samples later, at stamp 12
+    assert core.reset("clock jumped back").counts == {"resets": 1, "held_samples_dropped": len(held)} and not core.held
     release.set()
 
 

@@ -153,15 +153,20 @@ class LoadPredictorCore:
     def reset(self, reason: str) -> Outcome:
         """Forget the filter state (not the model) and the samples held; the next sample starts
         afresh."""
+        out = self._restart(reason)
+        if self.held:
+            out.count("held_samples_dropped", len(self.held))
+            self.held.clear()
+        return out
+
+    def _restart(self, reason: str) -> Outcome:
+        """Forget the filter state (not the model, nor the samples held after this one)."""
         self.predictor.reset()
         self.drifting = False
         self.window.clear()
         self.last_stamp_ns = None
         out = Outcome(log=[("warning", f"predictor reset: {reason}")])
         out.count("resets")
-        if self.held:
-            out.count("held_samples_dropped", len(self.held))
-            self.held.clear()
         return out
 
     @staticmethod
@@ -204,7 +209,7 @@ class LoadPredictorCore:
                 out.count("repeated_measurements")
                 return
             if self.last_stamp_ns is not None and stamp_ns < self.last_stamp_ns:
-                reset = self.reset("measurement stamp went back in time")
+                reset = self._restart("measurement stamp went back in time")
                 for name, n in reset.counts.items():
                     out.count(name, n)
                 out.log += reset.log
