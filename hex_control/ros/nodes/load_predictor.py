@@ -17,8 +17,9 @@ Topics:
 The behaviour is :class:`hex_control.estimation.load_predictor.LoadPredictorCore`; this
 node reads its parameters into the core's settings, converts messages and spins. The model
 (a, W, V, mean) is fixed by parameters or, with ``identify_window`` > 0, re-identified online
-in a background thread, the samples due after it held until it is in (the core's ``resume``); with ``drift_rate_variance`` > 0 the predictor is an IMM that tells a
-drifting load (a disk that dulls) from a steady one (:mod:`hex_control.estimation.drift`).
+in a background thread, the samples due after it held until it is in (the core's
+``resume``); with ``drift_rate_variance`` > 0 the predictor is an IMM that tells a drifting
+load (a disk that dulls) from a steady one (:mod:`hex_control.estimation.drift`).
 """
 
 from __future__ import annotations
