@@ -3,6 +3,7 @@
 import math
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -15,12 +16,13 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 from std_msgs.msg import Float64, Header
 
-from hex_control.estimation import GaussMarkovModel, OneStepPredictor, expected_skill, skill_score
+from hex_control.estimation import GaussMarkovModel, OneStepPredictor, expected_skill, identify, skill_score
+from hex_control.estimation import load_predictor as predictor_core
 from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.estimation.kalman import steady_state_variance
 from hex_control.ros.nodes.load_predictor import LoadPredictorNode
 from hex_control_msgs.msg import LoadPrediction
-from ros_harness import NodeProcess, wait_until
+from ros_harness import NodeProcess, RosHarness, run_domain_id, wait_until
 
 MODEL = GaussMarkovModel(0.95, 0.8, 1.5)
 
@@ -133,6 +135,44 @@ def test_a_drifting_load_is_predicted_and_flagged_like_the_library(ros):
 def test_a_drift_model_cannot_be_identified_online(ros):
     with pytest.raises(ValueError, match="identify_window"):
         start_predictor(ros, "/t6", drift_rate_variance=0.5, identify_window=100)
+
+
+def test_samples_held_for_an_identification_all_come_out_in_order(ros, monkeypatch, request):
+    """The samples due while an identification runs are held, then published at once when it
+    ends, in order, every one. The output's history takes the burst: at depth 100 a burst of
+    600 lost some beside a busy reader (found by an attack from a second process; a quiet
+    reader here takes them all either way, so the depth is checked as well)."""
+    release = threading.Event()
+
+    def slow(window):
+        release.wait(30.0)
+        return identify(window)
+
+    monkeypatch.setattr(predictor_core, "identify", slow)
+    apart = RosHarness(run_domain_id())  # a participant of its own, as another process: within one, no loss
+    request.addfinalizer(apart.close)
+    node = start_predictor(apart, "/t9", identify_window=60, identify_every=20)
+    predictions = ros.collect(LoadPrediction, "/t9/load_predictor/prediction", QoSProfile(depth=1000), publishers=1)
+    source = ros.node("source_t9")
+    publisher = source.create_publisher(Float64, "/t9/load", 100)
+    ros.wait_for_match(source, "/t9/load", subscribers=1)
+    values = 40.0 + np.cumsum(np.random.default_rng(9).normal(0.0, 0.3, 600))
+    for chunk in range(0, 600, 50):  # within the input's depth (100) at a time
+        for value in values[chunk:chunk + 50]:
+            publisher.publish(Float64(data=float(value)))
+        wait_until(lambda: node.core.predictor.sample_count + len(node.core.held) == chunk + 50, 10.0,
+                   what="the node to take the samples")
+    assert node.core.predictor.sample_count == 69 and len(node.core.held) == 531  # due at sample 70
+    release.set()
+    wait_until(lambda: len(predictions) >= 600, 20.0, what="the held predictions")
+    assert [m.sample_count for m in predictions] == list(range(1, 601))
+    assert [m.measurement for m in predictions] == [float(v) for v in values]
+    assert node._publisher.qos_profile.depth == predictor_core.MAX_HELD_SAMPLES + 1
+
+
+def test_a_latched_predictor_cannot_identify_online(ros):
+    with pytest.raises(ValueError, match="latched or identify_window"):
+        start_predictor(ros, "/t10", latched=True, identify_window=100)
 
 
 def test_bad_input_field_is_refused_at_start(ros):

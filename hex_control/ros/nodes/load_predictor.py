@@ -33,6 +33,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from std_msgs.msg import Header
 
+from hex_control.estimation import load_predictor as predictor_core
 from hex_control.estimation.load_predictor import MODEL_VALUES, LoadPredictorCore, LoadPredictorSettings, Outcome
 from hex_control.grinding.config import cell_value
 from hex_control.ros.infra.diagnostics import Diagnostics
@@ -78,7 +79,9 @@ PARAMETERS = {
                                         "(load unit^2 per sample^2); < 0 = drift_rate_variance", -1e12, 1e12),
     "valid_min": Spec(D.valid_min, "measurements below this are rejected (load unit)", -1e12, 1e12),
     "valid_max": Spec(D.valid_max, "measurements above this are rejected (load unit)", -1e12, 1e12),
-    "qos_depth": Spec(100, "history depth of the input and output streams (samples)", 1, 10_000),
+    "qos_depth": Spec(100, "history depth of the input and output streams (samples); the output's at least "
+                      f"{predictor_core.MAX_HELD_SAMPLES + 1} with identify_window > 0 (held ones go out at once)",
+                      1, 10_000),
     "latched": Spec(False, "keep the last prediction for a late joiner (transient local, depth 1): the pass "
                     "rate's, so that a sequence planner restarted mid-job has the K1 of the pass it resumes after"),
     "diagnostics_period_s": Spec(1.0, "period of /diagnostics (s)", 0.01, 60.0),
@@ -107,6 +110,11 @@ class LoadPredictorNode(Node):
             self.diagnostics.set(key, value)
 
         depth = p("qos_depth").value
+        if settings.identify_window > 0:  # the samples held for an identification go out at once
+            if p("latched").value:
+                raise ValueError("latched keeps one prediction, and a burst of held ones after an identification "
+                                 "would overwrite each other unheard: latched or identify_window > 0, not both")
+            depth = max(depth, predictor_core.MAX_HELD_SAMPLES + 1)
         self._publisher = self.create_publisher(LoadPrediction, "~/prediction",
                                                 LATCHED if p("latched").value else depth)
         relative_to = p("input_namespace").value
