@@ -158,6 +158,44 @@ def test_held_samples_keep_their_order_tags_and_stamp_checks_refusals_do_not_wai
     release.set()
 
 
+def test_a_retune_while_samples_are_held_takes_effect_where_it_came_in_the_stream():
+    """The same retune after the 100th sample: with the identification done at once, and with
+    it still running then (the retune held behind the samples due from the 89th): the same
+    predictions; a clock jump's reset drops the samples held but not a retune among them."""
+    series = [float(v) for v in 40.0 + np.cumsum(np.random.default_rng(6).normal(0, 0.3, 200))]
+    settings = LoadPredictorSettings(identify_window=60, identify_every=40)
+    values = {"a": 0.5, "process_variance": 2.0, "measurement_variance": 1.5, "initial_variance": -1.0, "mean": 40.0}
+    pending = []
+
+    def held(function, *args):
+        future = Future()
+        pending.append(lambda: future.set_result(function(*args)))
+        return future
+
+    runs, outcomes = [], []
+    for submit in (None, held):
+        core = LoadPredictorCore(settings, submit=submit) if submit else LoadPredictorCore(settings)
+        predictions = [p.step.prediction for value in series[:100] for p in core.measure(value).predictions]
+        outcomes.append(core.retune(values))
+        predictions += [p.step.prediction for value in series[100:] for p in core.measure(value).predictions]
+        while pending:
+            pending.pop(0)()
+            out = core.resume()
+            outcomes.append(out.values)
+            predictions += [p.step.prediction for p in out.predictions]
+        runs.append(predictions)
+    assert len(runs[0]) == 200 and runs[0] == runs[1]
+    assert outcomes[0]["model_a"] == "0.5" and outcomes[1] == {}  # held: reported when applied
+    core = LoadPredictorCore(settings, submit=held)
+    for value in series[:100]:
+        core.measure(value)
+    core.retune(values)
+    core.measure(40.0)
+    reset = core.reset("clock jumped back")
+    assert reset.values["model_a"] == "0.5" and core.predictor.model.a == 0.5
+    assert reset.counts["held_samples_dropped"] == 12  # due at 89 (50 + 40 - 1): 89-99 and the one after
+
+
 def test_an_identification_later_than_its_hold_is_counted_and_taken_up_when_it_comes(monkeypatch):
     """A window too large for its interval (or a machine far too slow) holds at most
     MAX_HELD_SAMPLES samples, once; then they are predicted with the model in use and the

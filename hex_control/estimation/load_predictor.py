@@ -76,6 +76,14 @@ class Prediction:
     tag: object = None
 
 
+@dataclass(frozen=True)
+class Retune:
+    """A live change of the model (and its ``mean``, load unit), held in turn with the samples."""
+
+    model: GaussMarkovModel
+    mean: float
+
+
 @dataclass
 class Outcome:
     """What one input (or an identification's end) did: the ``predictions`` to publish, in
@@ -119,7 +127,7 @@ class LoadPredictorCore:
         self._since_identification = self.identify_every  # identify as soon as possible
         self._identification: Future | None = None
         self._late: Future | None = None  # the identification no longer waited for (MAX_HELD_SAMPLES)
-        self.held: deque[tuple[float, int | None, object]] = deque()  # (value, stamp ns, tag) waiting for it
+        self.held: deque[tuple[float, int | None, object] | Retune] = deque()  # (value, stamp ns, tag) waiting
         self.drifting = False  # the drift probability is above one half
         self.last_stamp_ns: int | None = None
 
@@ -143,10 +151,17 @@ class LoadPredictorCore:
 
     def retune(self, values: dict) -> dict[str, str]:
         """Set the model's ``values`` (MODEL_VALUES, the full set) live, keeping the estimate:
-        a retuned model continues bumplessly. ValueError if they are not a model; the new
-        diagnostics values."""
-        model = self.settings.model(values)
-        self.predictor.model, self.predictor.mean = model, values["mean"]
+        a retuned model continues bumplessly. ValueError if they are not a model. Returns the
+        new diagnostics values; while samples are held it takes effect after them, where it
+        came in the stream, and returns none (:meth:`resume`'s outcome carries them)."""
+        retune = Retune(self.settings.model(values), values["mean"])
+        if self.held:
+            self.held.append(retune)
+            return {}
+        return self._apply(retune)
+
+    def _apply(self, retune: Retune) -> dict[str, str]:
+        self.predictor.model, self.predictor.mean = retune.model, retune.mean
         return self.model_values()
 
     # -- filtering ----------------------------------------------------------------------
@@ -154,9 +169,12 @@ class LoadPredictorCore:
         """Forget the filter state (not the model) and the samples held; the next sample starts
         afresh."""
         out = self._restart(reason)
-        if self.held:
-            out.count("held_samples_dropped", len(self.held))
-            self.held.clear()
+        for item in self.held:  # a retune held among them still takes effect
+            if isinstance(item, Retune):
+                out.values.update(self._apply(item))
+            else:
+                out.count("held_samples_dropped")
+        self.held.clear()
         return out
 
     def _restart(self, reason: str) -> Outcome:
@@ -196,9 +214,12 @@ class LoadPredictorCore:
         still runs (the node calls this again when it ends)."""
         out = Outcome()
         while self.held:
-            if self._waiting(out):
+            if isinstance(self.held[0], Retune):
+                out.values.update(self._apply(self.held.popleft()))
+            elif self._waiting(out):
                 break
-            self._predict(*self.held.popleft(), out)
+            else:
+                self._predict(*self.held.popleft(), out)
         return out
 
     def _predict(self, value: float, stamp_ns: int | None, tag: object, out: Outcome) -> None:
