@@ -127,7 +127,7 @@ class LoadPredictorCore:
         self._since_identification = self.identify_every  # identify as soon as possible
         self._identification: Future | None = None
         self._late: Future | None = None  # the identification no longer waited for (MAX_HELD_SAMPLES)
-        self.held: deque[tuple[float, int | None, object] | Retune] = deque()  # (value, stamp ns, tag) waiting
+        self.held: deque[tuple[float, int | None, object] | Retune] = deque()  # (value, stamp ns, tag)s and Retunes
         self.drifting = False  # the drift probability is above one half
         self.last_stamp_ns: int | None = None
 
