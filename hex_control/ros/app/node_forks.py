@@ -163,9 +163,6 @@ class ForkedNode:
     def kill(self) -> None:
         self.send_signal(signal.SIGKILL)
 
-    def terminate(self) -> None:
-        self.send_signal(signal.SIGTERM)
-
 
 class NodeForks:
     """The client of one fork server, started with ``env`` (the nodes' common environment)
