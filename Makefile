@@ -46,10 +46,12 @@ $(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES)
 
 # 3. hex_control itself, editable. setup.cfg puts the scripts in lib/hex_control (the
 #    layout `ros2 run` expects); link the user-facing ones onto the venv's PATH too.
-$(VENV)/.stamp-package: $(VENV)/.stamp-tf2-msgs $(VENV)/.stamp-msgs setup.py setup.cfg
+$(VENV)/.stamp-package: $(VENV)/.stamp-tf2-msgs $(VENV)/.stamp-msgs setup.py setup.cfg \
+                       hex_control/grinding/contact_kernel.py
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	cd $(VENV)/bin && for script in ../lib/hex_control/hexctl ../lib/hex_control/hex-*; do \
 	  ln -sf $$script .; done
+	$(PY) -c "import hex_control.grinding.contact_kernel"  # compiled once here (10 s), cached beside it
 	touch $@
 
 demo: setup

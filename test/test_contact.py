@@ -119,7 +119,16 @@ from hex_control.grinding.contact import LiveContour, clip_region  # noqa: E402
 from hex_control.grinding.contact_reference import clip_below_reference, contact_patch_reference  # noqa: E402
 from hex_control.grinding.contour import Contour  # noqa: E402
 
-BOTH_PATHS = pytest.mark.parametrize("scalar_points", [40, -1], ids=["plain floats", "numpy"])
+#: the compiled kernel (contact_kernel.py) and the Python one it was made from, on few points
+#: in plain floats and on many in numpy
+KERNELS = pytest.mark.parametrize("kernel", ["compiled", "plain floats", "numpy"])
+
+
+def _use(monkeypatch, kernel: str) -> None:
+    assert contact_module._compiled is not None, "numba is in the pinned closure: the compiled kernel must load"
+    if kernel != "compiled":
+        monkeypatch.setattr(contact_module, "_compiled", None)
+        monkeypatch.setattr(contact_module, "SCALAR_POINTS", 40 if kernel == "plain floats" else -1)
 
 
 def _truth(x, z, cut_x, cut_z, samples):
@@ -129,13 +138,13 @@ def _truth(x, z, cut_x, cut_z, samples):
                     np.interp(samples, x, z))
 
 
-@BOTH_PATHS
-def test_a_crossing_next_to_a_cutter_vertex_above_the_contour_is_exact(monkeypatch, scalar_points):
+@KERNELS
+def test_a_crossing_next_to_a_cutter_vertex_above_the_contour_is_exact(monkeypatch, kernel):
     """A falling contour crosses the cutter's first segment at x = 4.36 mm, and the cutter's
     vertex at x = 6 lies above the contour. The old truncation interpolated the depth across
     that vertex and put the crossing at 1.55 mm (up to 0.17 mm too low); the new one merges
     every cutter vertex in the span and is exact."""
-    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+    _use(monkeypatch, kernel)
     x, z = np.array([0.0, 10.0]), np.array([1.0, 0.0])
     cut_x, cut_z = np.array([0.0, 6.0, 12.0]), np.array([0.6, 0.55, 3.0])
     samples = np.linspace(0.0, 10.0, 10001)
@@ -146,9 +155,9 @@ def test_a_crossing_next_to_a_cutter_vertex_above_the_contour_is_exact(monkeypat
     assert np.max(np.abs(np.interp(samples, old_x, old_z) - _truth(x, z, cut_x, cut_z, samples))) > 0.15
 
 
-@BOTH_PATHS
-def test_random_truncations_are_exact_and_keep_x_increasing(monkeypatch, scalar_points):
-    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+@KERNELS
+def test_random_truncations_are_exact_and_keep_x_increasing(monkeypatch, kernel):
+    _use(monkeypatch, kernel)
     rng = np.random.default_rng(39)
     for _ in range(200):
         x = np.cumsum(rng.uniform(0.05, 1.0, 60))
@@ -163,11 +172,11 @@ def test_random_truncations_are_exact_and_keep_x_increasing(monkeypatch, scalar_
         np.testing.assert_allclose(np.interp(samples, new_x, new_z), _truth(x, z, cut_x, cut_z, samples), atol=1e-9)
 
 
-@BOTH_PATHS
-def test_the_narrowed_contact_search_is_the_whole_face_search(monkeypatch, scalar_points):
+@KERNELS
+def test_the_narrowed_contact_search_is_the_whole_face_search(monkeypatch, kernel):
     """Only the face below the contour's top is visited (and in plain floats when few points
     lie there): the same patch as the old search over the whole face, to float tolerance."""
-    monkeypatch.setattr(contact_module, "SCALAR_POINTS", scalar_points)
+    _use(monkeypatch, kernel)
     rng = np.random.default_rng(7)
     for _ in range(300):
         x = np.cumsum(rng.uniform(0.02, 1.0, 400))
@@ -212,3 +221,68 @@ def test_clip_region_names_the_points_it_replaces():
     lo, hi, new_x, new_z = clip_region(x, z, np.array([3.5, 6.5]), np.array([0.5, 0.5]))
     assert (lo, hi) == (4, 7) and new_x[0] == 3.5 and new_x[-1] == 6.5 and np.all(new_z == 0.5)
     assert clip_region(x, z, np.array([3.5, 6.5]), np.array([1.5, 1.5])) is None
+
+
+def test_the_compiled_kernel_is_the_python_one_to_the_last_bit_on_few_points(monkeypatch):
+    """contact_kernel.py runs the plain-float algorithm for any number of points: on the few
+    points a step visits its patches and cuts are the Python kernel's exactly, on many they
+    differ from numpy's pairwise sums by rounding only."""
+    rng = np.random.default_rng(39)
+    cases = []
+    for _ in range(300):
+        x = np.cumsum(rng.uniform(0.05, 1.0, 60))
+        z = rng.normal(0.0, 0.3, x.size)
+        pose = _pose(rng.uniform(x[5], x[40]), rng.normal(0.0, 0.4), rng.uniform(0.1, 0.6))
+        cut_x = np.sort(rng.uniform(x[0] - 2, x[-1] + 2, 3))
+        cut_z = np.array([np.interp(cut_x[0], x, z) + rng.uniform(0.0, 0.3), rng.normal(0.0, 0.4), 2.0])
+        cases.append((x, z, pose, cut_x, cut_z, float(z.max()) + rng.uniform(0, 1)))
+
+    def run():
+        return [(contact_patch(x, z, pose, top_mm=top), clip_region(x, z, cut_x, cut_z, top))
+                for x, z, pose, cut_x, cut_z, top in cases]
+
+    compiled = run()
+    _use(monkeypatch, "plain floats")
+    few = run()
+    monkeypatch.setattr(contact_module, "SCALAR_POINTS", -1)
+    many = run()
+    cuts = 0
+    for (patch, region), (patch_few, region_few), (patch_many, region_many) in zip(compiled, few, many):
+        assert patch == patch_few
+        assert (patch.patches, patch.kind) == (patch_many.patches, patch_many.kind)
+        assert patch.length_mm == pytest.approx(patch_many.length_mm, rel=1e-12, abs=1e-15)
+        assert (region is None) == (region_few is None) == (region_many is None)
+        if region is not None:
+            cuts += 1
+            assert region[:2] == region_few[:2] == region_many[:2]
+            for got, want in zip(region[2:], region_few[2:]):
+                assert np.array_equal(got, want)
+            for got, want in zip(region[2:], region_many[2:]):
+                np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert cuts > 100  # most of the cutters cut
+
+
+def test_a_pass_simulated_with_the_compiled_kernel_is_the_python_kernels(monkeypatch):
+    """A whole planned pass (600 RK4 steps, 3,000 contact searches, 600 cuts): the same
+    histories and final contour, bit for bit, with the kernel compiled or not."""
+    from hex_control.grinding.config import load_pass_planner_config
+    from hex_control.grinding.contour import weld_bead
+    from hex_control.grinding.dynamic import HeightControl, simulate_pass
+    from hex_control.grinding.pass_plan import final_contour
+
+    model = load_pass_planner_config("pass_planner.yaml").model
+    bead = weld_bead(60.0, 0.8, 12.0, ripple_mm=0.05, seed=0)
+    target = final_contour(bead, 0.2, model.process.bead_width_mm)
+
+    def simulate():
+        drive = HeightControl(model, bead.x_mm, target.tip_mm, bead.x_mm[0])
+        return simulate_pass(bead, model, drive, 11.3, step_mm=0.1)
+
+    compiled = simulate()
+    _use(monkeypatch, "plain floats")
+    python = simulate()
+    assert compiled.history["time_s"].size > 500 and compiled.removed_mm3 > 0
+    for name, values in python.history.items():
+        assert np.array_equal(compiled.history[name], values), name
+    assert np.array_equal(compiled.final.x_mm, python.final.x_mm)
+    assert np.array_equal(compiled.final.z_mm, python.final.z_mm)

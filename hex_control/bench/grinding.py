@@ -2,7 +2,8 @@
 the same process (``grinding.contact_reference``: the whole-face contact search and the
 whole-contour truncation with np.unique / np.isin at every step; no warm start).
 
-- ``pass``: one 150 mm pass simulated at the default resolution.
+- ``pass``: one 150 mm pass simulated at the default resolution, also with the contact
+  kernel in Python instead of compiled (``grinding.contact_kernel``).
 - ``search-start``: where a job's first guarded search starts (the pass planner's
   ``search_start``), calibrated on cold searches, and what it saves on other beads.
 - ``pass-planning``: the demo's job replayed without ROS: ``hexctl demo``'s bead (300 mm,
@@ -22,8 +23,10 @@ import dataclasses
 import re
 import time
 from pathlib import Path
+from unittest import mock
 
 from hex_control.bench import benchmark, best_time
+from hex_control.grinding import contact
 from hex_control.grinding.contact import contact_patch_scan
 from hex_control.grinding.contact_reference import contact_patch_reference
 from hex_control.grinding.contour import final_contour, weld_bead
@@ -45,12 +48,19 @@ def pass_speed(quick: bool) -> list[str]:
         drive = HeightControl(model, bead.x_mm, target.tip_mm, bead.x_mm[0])
         return simulate_pass(bead, model, drive, 10.0, step_mm=0.1, contact_search=search)
 
+    def in_python():
+        with mock.patch.object(contact, "_compiled", None):
+            return run()
+
     steps = run().history["time_s"].size
     fast = best_time(run, repeat=1 if quick else 3)
+    python = best_time(in_python, repeat=1 if quick else 3)
     old = best_time(lambda: run(contact_patch_reference), repeat=1 if quick else 3)
     naive = best_time(lambda: run(contact_patch_scan), repeat=1)
-    return [f"150 mm pass at 10 mm/s, 0.1 mm steps ({steps} steps, 4 contact searches each): "
-            f"{fast:.3f} s (target < 0.5 s), {steps / fast:.0f} steps/s",
+    kernel = "compiled" if contact._compiled is not None else "Python: numba missing"
+    return [f"150 mm pass at 10 mm/s, 0.1 mm steps ({steps} steps, 4 contact searches each), contact kernel "
+            f"{kernel}: {fast:.3f} s (target < 0.5 s), {steps / fast:.0f} steps/s",
+            f"the same kernel in Python: {python:.3f} s, ratio {python / fast:.1f}x",
             f"old kernel (whole-face search, whole-contour truncation): {old:.3f} s, ratio {old / fast:.1f}x",
             f"naive whole-contour contact search: {naive:.3f} s, ratio {naive / fast:.1f}x"]
 

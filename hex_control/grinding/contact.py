@@ -25,6 +25,11 @@ import numpy as np
 
 from hex_control.grinding.contour import Contour
 
+try:  # the compiled kernel (contact_kernel.py); the functions below are its reference
+    from hex_control.grinding import contact_kernel as _compiled
+except ImportError:  # pragma: no cover - numba missing: the plain Python kernel, slower
+    _compiled = None
+
 TOUCH_MM = 1e-7
 SCALAR_POINTS = 40  # a contact search over at most this many points runs in plain floats
 COLLINEAR_MM = 1e-12  # a point this close to the line between its neighbours adds nothing to a polyline
@@ -91,6 +96,11 @@ def contact_patch(x_mm: np.ndarray, z_mm: np.ndarray, pose: DiskPose, touch_mm: 
     points in that reach), nothing when the whole face is above the contour (the approach
     and the reset move)."""
     top = float(z_mm.max()) if top_mm is None else top_mm
+    if _compiled is not None:
+        length, centroid, runs, tip_inside = _compiled.contact_patch(
+            x_mm, z_mm, pose.centre_x_mm, pose.centre_z_mm, pose.angle_rad, pose.radius_mm, touch_mm, top)
+        return NO_PATCH if runs == 0 else ContactPatch(length, centroid, runs,
+                                                       MULTIPLE if runs > 1 else (TIP if tip_inside else FACE))
     tip_z = pose.tip_z_mm
     if tip_z - touch_mm > top:
         return NO_PATCH
@@ -223,6 +233,9 @@ def clip_region(x_mm: np.ndarray, z_mm: np.ndarray, cutter_x: np.ndarray, cutter
     truncation (``contact_reference``) interpolated the depth across a vertex above the
     contour and misplaced a crossing next to it (by 0.2 um where the tip left the work)."""
     top = float(z_mm.max()) if top_mm is None else top_mm
+    if _compiled is not None:
+        lo, hi, new_x, new_z = _compiled.clip_region(x_mm, z_mm, cutter_x, cutter_z, top, TOUCH_MM * 1e-2)
+        return None if lo == _compiled.NONE else (lo, hi, new_x, new_z)
     if cutter_z.min() >= top:  # the tool is clear of the whole contour
         return None
     cutter_x, cutter_z = _below(cutter_x, cutter_z, top)
