@@ -1,7 +1,7 @@
 """ament_python package hex_control (see package.xml)."""
 from glob import glob
 
-from setuptools import find_packages, setup
+from setuptools import Extension, find_packages, setup
 
 PACKAGE = "hex_control"
 
@@ -19,10 +19,16 @@ NODES = {
     "robot_state": "hex_control.ros.nodes.robot_state:main",
 }
 
+# The pass simulation's contact kernel in C (grinding/_contact_c.c; contact.py runs the same
+# algorithm in Python when it is not built). No fused multiply-add: the Python kernel's roundings.
+CONTACT_KERNEL = Extension(f"{PACKAGE}.grinding._contact_c", [f"{PACKAGE}/grinding/_contact_c.c"],
+                           extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+
 setup(
     name=PACKAGE,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*"]),
+    ext_modules=[CONTACT_KERNEL],
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),

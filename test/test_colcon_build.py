@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: what package.xml must name for an imported module that is neither the standard library's
 #: nor ours: a rosdep key (rosdistro's rosdep/python.yaml; '-pip' keys install from PyPI), or
 #: "pip: <name>" in a comment where rosdep has no key. A ROS package's module is its key.
-IMPORT_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "numba": "python3-numba", "yaml": "python3-yaml",
+IMPORT_KEYS = {"numpy": "python3-numpy", "scipy": "python3-scipy", "yaml": "python3-yaml",
                "matplotlib": "python3-matplotlib", "tqdm": "python3-tqdm", "filterpy": "python3-filterpy-pip",
                "control": "python-control-pip", "mcap_ros2": "mcap-ros2-support", "mcap": "pip: mcap",
                "ray": "pip: ray", "foxglove": "pip: foxglove-sdk"}

@@ -119,13 +119,13 @@ from hex_control.grinding.contact import LiveContour, clip_region  # noqa: E402
 from hex_control.grinding.contact_reference import clip_below_reference, contact_patch_reference  # noqa: E402
 from hex_control.grinding.contour import Contour  # noqa: E402
 
-#: the compiled kernel (contact_kernel.py) and the Python one it was made from, on few points
-#: in plain floats and on many in numpy
+#: the compiled kernel (_contact_c.c) and the Python one it was made from, on few points in
+#: plain floats and on many in numpy
 KERNELS = pytest.mark.parametrize("kernel", ["compiled", "plain floats", "numpy"])
 
 
 def _use(monkeypatch, kernel: str) -> None:
-    assert contact_module._compiled is not None, "numba is in the pinned closure: the compiled kernel must load"
+    assert contact_module._compiled is not None, "setup.py builds the compiled kernel: it must load"
     if kernel != "compiled":
         monkeypatch.setattr(contact_module, "_compiled", None)
         monkeypatch.setattr(contact_module, "SCALAR_POINTS", 40 if kernel == "plain floats" else -1)
@@ -224,7 +224,7 @@ def test_clip_region_names_the_points_it_replaces():
 
 
 def test_the_compiled_kernel_is_the_python_one_to_the_last_bit_on_few_points(monkeypatch):
-    """contact_kernel.py runs the plain-float algorithm for any number of points: on the few
+    """_contact_c.c runs the plain-float algorithm for any number of points: on the few
     points a step visits its patches and cuts are the Python kernel's exactly, on many they
     differ from numpy's pairwise sums by rounding only."""
     rng = np.random.default_rng(39)
@@ -286,3 +286,26 @@ def test_a_pass_simulated_with_the_compiled_kernel_is_the_python_kernels(monkeyp
         assert np.array_equal(compiled.history[name], values), name
     assert np.array_equal(compiled.final.x_mm, python.final.x_mm)
     assert np.array_equal(compiled.final.z_mm, python.final.z_mm)
+
+
+def test_the_compiled_kernel_refuses_malformed_buffers_and_survives_nan():
+    """The C kernel reads raw buffers: a wrong length or an empty one is a ValueError, not a
+    read out of bounds; a cutter of NaN heights cuts nothing; a NaN pose touches nothing."""
+    kernel = contact_module._compiled
+    assert kernel is not None, "setup.py builds the compiled kernel: it must load"
+    x, z = np.linspace(0.0, 10.0, 11), np.full(11, 1.0)
+    with pytest.raises(ValueError):
+        kernel.contact_patch(x, z[:5], 5.0, 1.0, 0.3, 80.0, 1e-7, 1.0)
+    with pytest.raises(ValueError):
+        kernel.contact_patch(np.empty(0), np.empty(0), 5.0, 1.0, 0.3, 80.0, 1e-7, 1.0)
+    with pytest.raises(ValueError):
+        kernel.clip_region(x, z, b"1234567", b"1234567", 1.0, 1e-9)
+    with pytest.raises(ValueError):
+        kernel.clip_region(x, z, np.array([1.0, 2.0]), np.array([0.5]), 1.0, 1e-9)
+    with pytest.raises(ValueError, match="contiguous"):  # the wrapper copies such arrays; the kernel refuses them
+        kernel.clip_region(x, z, x[::2], z[::2], 1.0, 1e-9)
+    assert kernel.clip_region(x, z, np.array([3.0, 6.0]), np.full(2, np.nan), 1.0, 1e-9) is None
+    assert kernel.contact_patch(x, z, np.nan, np.nan, 0.3, 80.0, 1e-7, 1.0)[2] == 0
+    # and the wrapper takes any numeric arrays, as the Python kernel does
+    pose = _pose(4.0, 0.5)
+    assert contact_patch(x.astype(np.float32), z.astype(int), pose, top_mm=1.0) == contact_patch(x, z, pose)

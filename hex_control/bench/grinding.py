@@ -3,7 +3,7 @@ the same process (``grinding.contact_reference``: the whole-face contact search 
 whole-contour truncation with np.unique / np.isin at every step; no warm start).
 
 - ``pass``: one 150 mm pass simulated at the default resolution, also with the contact
-  kernel in Python instead of compiled (``grinding.contact_kernel``).
+  kernel in Python instead of compiled (``grinding/_contact_c.c``).
 - ``search-start``: where a job's first guarded search starts (the pass planner's
   ``search_start``), calibrated on cold searches, and what it saves on other beads.
 - ``pass-planning``: the demo's job replayed without ROS: ``hexctl demo``'s bead (300 mm,
@@ -57,7 +57,7 @@ def pass_speed(quick: bool) -> list[str]:
     python = best_time(in_python, repeat=1 if quick else 3)
     old = best_time(lambda: run(contact_patch_reference), repeat=1 if quick else 3)
     naive = best_time(lambda: run(contact_patch_scan), repeat=1)
-    kernel = "compiled" if contact._compiled is not None else "Python: numba missing"
+    kernel = "compiled" if contact._compiled is not None else "in Python: _contact_c not built"
     return [f"150 mm pass at 10 mm/s, 0.1 mm steps ({steps} steps, 4 contact searches each), contact kernel "
             f"{kernel}: {fast:.3f} s (target < 0.5 s), {steps / fast:.0f} steps/s",
             f"the same kernel in Python: {python:.3f} s, ratio {python / fast:.1f}x",

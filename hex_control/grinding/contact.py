@@ -25,9 +25,9 @@ import numpy as np
 
 from hex_control.grinding.contour import Contour
 
-try:  # the compiled kernel (contact_kernel.py); the functions below are its reference
-    from hex_control.grinding import contact_kernel as _compiled
-except ImportError:  # pragma: no cover - numba missing: the plain Python kernel, slower
+try:  # the compiled kernel (_contact_c.c, built by setup.py); the functions below are its reference
+    from hex_control.grinding import _contact_c as _compiled
+except ImportError:  # pragma: no cover - not built (no C compiler): the plain Python kernel, slower
     _compiled = None
 
 TOUCH_MM = 1e-7
@@ -97,8 +97,9 @@ def contact_patch(x_mm: np.ndarray, z_mm: np.ndarray, pose: DiskPose, touch_mm: 
     and the reset move)."""
     top = float(z_mm.max()) if top_mm is None else top_mm
     if _compiled is not None:
+        x, z = np.ascontiguousarray(x_mm, float), np.ascontiguousarray(z_mm, float)  # the buffers it reads
         length, centroid, runs, tip_inside = _compiled.contact_patch(
-            x_mm, z_mm, pose.centre_x_mm, pose.centre_z_mm, pose.angle_rad, pose.radius_mm, touch_mm, top)
+            x, z, pose.centre_x_mm, pose.centre_z_mm, pose.angle_rad, pose.radius_mm, touch_mm, top)
         return NO_PATCH if runs == 0 else ContactPatch(length, centroid, runs,
                                                        MULTIPLE if runs > 1 else (TIP if tip_inside else FACE))
     tip_z = pose.tip_z_mm
@@ -234,8 +235,9 @@ def clip_region(x_mm: np.ndarray, z_mm: np.ndarray, cutter_x: np.ndarray, cutter
     contour and misplaced a crossing next to it (by 0.2 um where the tip left the work)."""
     top = float(z_mm.max()) if top_mm is None else top_mm
     if _compiled is not None:
-        lo, hi, new_x, new_z = _compiled.clip_region(x_mm, z_mm, cutter_x, cutter_z, top, TOUCH_MM * 1e-2)
-        return None if lo == _compiled.NONE else (lo, hi, new_x, new_z)
+        region = _compiled.clip_region(*(np.ascontiguousarray(a, float) for a in (x_mm, z_mm, cutter_x, cutter_z)),
+                                       top, TOUCH_MM * 1e-2)
+        return None if region is None else (region[0], region[1], np.frombuffer(region[2]), np.frombuffer(region[3]))
     if cutter_z.min() >= top:  # the tool is clear of the whole contour
         return None
     cutter_x, cutter_z = _below(cutter_x, cutter_z, top)
