@@ -130,8 +130,9 @@ static PyObject *contact_patch(PyObject *self, PyObject *args) {
     return Py_BuildValue("ddlO", length, moment, runs, tip_inside ? Py_True : Py_False);
 }
 
-static int compare_doubles(const void *a, const void *b) {
+static int compare_doubles(const void *a, const void *b) { /* a total order: NaN last */
     double p = *(const double *)a, q = *(const double *)b;
+    if (isnan(p) || isnan(q)) return (isnan(p) != 0) - (isnan(q) != 0);
     return (p > q) - (p < q);
 }
 
