@@ -305,6 +305,13 @@ def test_the_compiled_kernel_refuses_malformed_buffers_and_survives_nan():
     with pytest.raises(ValueError, match="contiguous"):  # the wrapper copies such arrays; the kernel refuses them
         kernel.clip_region(x, z, x[::2], z[::2], 1.0, 1e-9)
     assert kernel.clip_region(x, z, np.array([3.0, 6.0]), np.full(2, np.nan), 1.0, 1e-9) is None
+    # a NaN at the cutter's end (its last x, or a NaN height after its part below the top) made
+    # the window negative: a heap overflow (helper attack, 2026-12-07); an x that does not rise, too
+    long_x, long_z = np.arange(0.0, 100.0), np.ones(100)
+    assert kernel.clip_region(long_x, long_z, np.array([4.5, np.nan]), np.full(2, 0.5), 1.0, 1e-9) is None
+    assert kernel.clip_region(long_x, long_z, np.array([10.2, 10.5, 11.0]), np.array([0.5, np.nan, np.nan]), 1.0,
+                              1e-9) is None
+    assert kernel.clip_region(long_x[::-1].copy(), long_z, np.array([4.5, 6.5]), np.full(2, 0.5), 1.0, 1e-9) is None
     assert kernel.contact_patch(x, z, np.nan, np.nan, 0.3, 80.0, 1e-7, 1.0)[2] == 0
     # and the wrapper takes any numeric arrays, as the Python kernel does
     pose = _pose(4.0, 0.5)

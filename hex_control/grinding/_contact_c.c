@@ -192,8 +192,9 @@ static PyObject *clip_region(PyObject *self, PyObject *args) {
         c = m_cut;
     }
     double first = py_max(cx[0], x[0]), last = py_min(cx[c - 1], x[n - 1]);
-    if (first >= last) goto nothing;
+    if (!(first < last)) goto nothing; /* nothing to cut, or a NaN end */
     Py_ssize_t lo = search_left(x, n, first), hi = search_right(x, n, last);
+    if (hi < lo) goto nothing; /* a contour whose x does not increase: no window to cut */
     Py_ssize_t start = lo - 1 > 0 ? lo - 1 : 0, stop = hi + 1 < n ? hi + 1 : n;
     const double *xs = x + start, *zs = z + start;
     Py_ssize_t near = stop - start, window = hi - lo;
