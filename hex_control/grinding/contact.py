@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,8 +37,7 @@ COLLINEAR_MM = 1e-12  # a point this close to the line between its neighbours ad
 NO_CONTACT, TIP, FACE, MULTIPLE = "none", "tip", "face", "multiple"
 
 
-@dataclass(frozen=True)
-class DiskPose:
+class DiskPose(NamedTuple):  # a value made five times a simulation step: a tuple, not a dataclass
     """Centre x (mm), centre height H (mm), face angle theta (rad), face length R (mm)."""
 
     centre_x_mm: float
@@ -58,8 +57,7 @@ class DiskPose:
         return self.centre_z_mm - (self.centre_x_mm - np.asarray(x_mm, float)) * math.tan(self.angle_rad)
 
 
-@dataclass(frozen=True)
-class ContactPatch:
+class ContactPatch(NamedTuple):
     """Patch length along the face (mm), its centroid's distance from the disk centre R*
     (mm, eq. 6.14; 0 without contact), the number of separate patches and Fig. 6-7's type."""
 

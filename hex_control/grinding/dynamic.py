@@ -50,6 +50,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -97,8 +98,7 @@ class DiskModel:
         return max(self.power_w(force_n) - p.wasted_power_w, 0.0) / p.specific_energy_j_mm3
 
 
-@dataclass(frozen=True)
-class DriveState:
+class DriveState(NamedTuple):  # made five times a simulation step: a tuple, not a dataclass
     """What a drive sets at one instant: the centre height H = ``height_mm``; its rate
     dH/dt = ``height_rate_mm_s`` + ``height_rate_per_angle_rate_mm`` * dtheta/dt (a PI on
     the tip error couples the two); the normal force; the relaxed angle; the ``integrand``

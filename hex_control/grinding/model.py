@@ -31,6 +31,13 @@ from hex_control.config import cell_default
 WATT = 1000.0  # N mm/s per W
 
 
+def _numbers(value):
+    """A Python float (or int) as it is, anything else as a float array: the same IEEE
+    arithmetic either way, and on one number a tenth of a 0-d array's cost (the pass
+    simulation asks the power a dozen times a step)."""
+    return value if isinstance(value, (float, int)) else np.asarray(value, float)
+
+
 @dataclass(frozen=True)
 class GrindingProcess:
     """Process coefficients, bead geometry and machine limits (thesis typical values, 5.5;
@@ -107,7 +114,7 @@ class GrindingProcess:
     def disk_speed(self, force_n):
         """omega = omega_0 - beta R mu F_N (eq. 4.8), rad/s."""
         return self.disk_speed_rad_s - self.motor_beta_rad_s_per_n_mm * self.disk_radius_mm \
-            * self.friction_coefficient * np.asarray(force_n, float)
+            * self.friction_coefficient * _numbers(force_n)
 
     def c3(self, force_n=0.0):
         """C3 = mu R omega / w in 1/s (omega from the motor model at this force)."""
@@ -148,7 +155,7 @@ class GrindingProcess:
 
     def power_w(self, force_n):
         """Power at the contact patch, omega R mu F_N (W)."""
-        force_n = np.asarray(force_n, float)
+        force_n = _numbers(force_n)
         return self.disk_speed(force_n) * self.disk_radius_mm * self.friction_coefficient * force_n / WATT
 
     def pass_duration_s(self, feed_mm_s):
