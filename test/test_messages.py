@@ -56,3 +56,28 @@ def test_field_paths():
     check_numeric_field(WrenchStamped, "wrench.force.z")
     with pytest.raises(ValueError, match="not a number"):
         check_numeric_field(WrenchStamped, "header.frame_id")
+
+
+def test_a_contour_message_is_refused_beyond_its_limits_of_points_length_and_height():
+    """The planners plan on what arrives: a contour of too many points, too long, or standing
+    absurdly far from the bead frame (1e300 mm looped the pass planner's search for ever, a
+    helper's attack of 2026-12-07) is refused at the message, with the limit named."""
+    from hex_control.ros.infra.interfaces import (
+        MAX_CONTOUR_HEIGHT_MM,
+        MAX_CONTOUR_LENGTH_MM,
+        contour_from_message,
+    )
+    from hex_control_msgs.msg import Contour as ContourMsg
+
+    x = [0.0, 10.0, 20.0]
+    good = contour_from_message(ContourMsg(x_mm=x, z_mm=[0.5, 1.0, 0.5], parent_mm=[0.0, 0.0, -999.0]))
+    assert good.parent_mm.tolist() == [0.0, 0.0, -999.0]
+    for fields, words in (({"z_mm": [0.5, 1e300, 0.5]}, r"z_mm beyond \+-1000 mm of the bead frame"),
+                          ({"z_mm": [0.5, 1.0, 0.5], "parent_mm": [0.0, -1e300, 0.0]}, r"parent_mm beyond \+-1000 mm"),
+                          ({"z_mm": [0.5, float("nan"), 0.5]}, "z_mm beyond"),
+                          ({"z_mm": [0.5, 1.0, 0.5], "x_mm": [0.0, 10.0, 3000.0]}, "exceeds the limit of 2000 mm"),
+                          ({"x_mm": [0.01 * k for k in range(100_001)], "z_mm": [0.5] * 100_001},
+                           "100001 points exceed the limit of 100000")):
+        with pytest.raises(ValueError, match=words):
+            contour_from_message(ContourMsg(**{"x_mm": x, **fields}))
+    assert MAX_CONTOUR_HEIGHT_MM == 1000.0 and MAX_CONTOUR_LENGTH_MM == 2000.0

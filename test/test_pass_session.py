@@ -201,6 +201,11 @@ def test_a_command_without_its_contour_is_refused_after_contour_wait_s():
     (_request(), _scan(stamp_s=math.nan), "bad contour: stamp nan s"),
     (_request(), _scan(contour=Contour(BEAD.x_mm, BEAD.parent_mm - 0.01, BEAD.parent_mm)),
      "no material left over the parent on the scan after 0 passes"),
+    # a helper's attack (2026-12-07): 1e300 mm over the parent looped for ever in the final
+    # contour's search, and a bead of 1e307 mm with a 1e300 mm cut made an infinite plan
+    (_request(), _scan(contour=Contour(BEAD.x_mm, BEAD.z_mm, np.full_like(BEAD.x_mm, -1e300))),
+     "no level removes"),
+    (_request(depth=1e300), _scan(contour=Contour(BEAD.x_mm, BEAD.z_mm * 1e307)), "the plan is not finite"),
 ])
 def test_a_command_that_cannot_be_planned_is_refused_with_a_reason(request_, scan, reason):
     verdict = _plan(PassSession(CONFIG), request_, scan)

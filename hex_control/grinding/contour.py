@@ -15,6 +15,7 @@ import numpy as np
 #: a contour's points at most, as a scan may hold them: planning a pass costs time in
 #: proportion to its points, and a 10^6-point contour kept the pass planner busy for minutes
 MAX_CONTOUR_POINTS = 100_000
+BRACKET_DOUBLINGS = 64  # a final contour's level is searched at most this many doublings below the top
 
 
 @dataclass(frozen=True)
@@ -159,8 +160,12 @@ def _offset_for(x_mm, above_mm, level, wanted_mm3: float, width_mm: float, *, de
     high = float(np.max(above_mm))  # nothing is removed above the highest point
     if low is None:
         low = high - depth_mm * 2 - 1.0
-        while removed(low) < wanted_mm3:  # the bisection needs a bracket: go deeper until it holds
+        for _ in range(BRACKET_DOUBLINGS):  # the bisection needs a bracket: go deeper until it holds
+            if removed(low) >= wanted_mm3:
+                break
             low = high - 2 * (high - low)
+        else:  # (heights of 1e16 mm and more: the doubling no longer moves in floats)
+            raise ValueError(f"no level removes {wanted_mm3:g} mm^3 within 2^{BRACKET_DOUBLINGS} mm of the top")
     for _ in range(200):
         middle = (low + high) / 2
         if removed(middle) > wanted_mm3:

@@ -327,6 +327,8 @@ class PassSession:
             raise PlanningError(f"the plan needs {float(np.max(plan.force_n)):.1f} N, more than F_max "
                                 f"{force_max_n:g} N")
         path = pass_tool_path(config.frame, plan.time_s, plan.centre_x_mm, plan.height_mm, config.path)
+        if not all(np.all(np.isfinite(a)) for a in (plan.force_n, path.positions_mm, [plan.planned_depth_mm])):
+            raise PlanningError("the plan is not finite (a contour of absurd heights?)")
         note = "; ".join(filter(None, [*notes, plan.reason]))
         values = {"planned_cut_depth_mm": plan.planned_depth_mm, "duration_s": float(plan.time_s[-1]),
                   "peak_force_n": float(np.max(plan.force_n)), "path_samples": int(path.time_s.size),

@@ -37,6 +37,10 @@ MAX_PATH_SAMPLES = 200_000
 #: a contour's length at most (its points: grinding.contour.MAX_CONTOUR_POINTS): planning a
 #: pass costs time in proportion to the length
 MAX_CONTOUR_LENGTH_MM = 2_000.0
+#: a contour's heights and parent at most this far from the bead frame (a bead stands a few
+#: mm): a contour of 1e300 mm made the final contour's search loop for ever, and of 1e307 mm
+#: an infinite plan
+MAX_CONTOUR_HEIGHT_MM = 1_000.0
 PATH_FIELDS = ("x_mm", "y_mm", "z_mm", "roll_rad", "pitch_rad", "yaw_rad")
 
 
@@ -53,12 +57,17 @@ def time_msg(seconds: float) -> TimeMsg:
 
 
 def contour_from_message(msg: ContourMsg) -> Contour:
-    """The contour; ValueError if malformed or beyond MAX_CONTOUR_POINTS or MAX_CONTOUR_LENGTH_MM."""
+    """The contour; ValueError if malformed or beyond MAX_CONTOUR_POINTS, MAX_CONTOUR_LENGTH_MM or
+    MAX_CONTOUR_HEIGHT_MM."""
     if len(msg.x_mm) > MAX_CONTOUR_POINTS:
         raise ValueError(f"{len(msg.x_mm)} points exceed the limit of {MAX_CONTOUR_POINTS}")
     if len(msg.x_mm) >= 2 and not abs(msg.x_mm[-1] - msg.x_mm[0]) <= MAX_CONTOUR_LENGTH_MM:
         raise ValueError(f"a length of {msg.x_mm[-1] - msg.x_mm[0]:g} mm exceeds the limit of "
                          f"{MAX_CONTOUR_LENGTH_MM:g} mm")
+    for name in ("z_mm", "parent_mm"):
+        values = getattr(msg, name)
+        if len(values) and not float(np.max(np.abs(values))) <= MAX_CONTOUR_HEIGHT_MM:
+            raise ValueError(f"{name} beyond +-{MAX_CONTOUR_HEIGHT_MM:g} mm of the bead frame")
     parent = list(msg.parent_mm) or None
     return Contour(np.asarray(msg.x_mm, float), np.asarray(msg.z_mm, float),
                    None if parent is None else np.asarray(parent, float))
