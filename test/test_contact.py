@@ -316,3 +316,18 @@ def test_the_compiled_kernel_refuses_malformed_buffers_and_survives_nan():
     # and the wrapper takes any numeric arrays, as the Python kernel does
     pose = _pose(4.0, 0.5)
     assert contact_patch(x.astype(np.float32), z.astype(int), pose, top_mm=1.0) == contact_patch(x, z, pose)
+
+
+@KERNELS
+def test_a_cutter_across_the_whole_contour_keeps_the_points_it_does_not_cut(monkeypatch, kernel):
+    """Its span's ends are the contour's own first and last points and it has no vertex
+    inside: nothing is added, and the numpy path then dropped every point below the cutter
+    (the polyline it left cut through them), found against the compiled kernel."""
+    _use(monkeypatch, kernel)
+    x = np.linspace(0.0, 10.0, 11)
+    z = np.where(np.arange(11) % 2 == 0, 0.2, 0.8)  # a zigzag across the cutter's height
+    lo, hi, new_x, new_z = clip_region(x, z, np.array([-1.0, 11.0]), np.array([0.5, 0.5]))
+    assert (lo, hi) == (0, 11)
+    samples = np.linspace(0.0, 10.0, 2001)
+    np.testing.assert_allclose(np.interp(samples, new_x, new_z), np.minimum(np.interp(samples, x, z), 0.5), atol=1e-12)
+    assert set(x[z < 0.5]) <= set(new_x)

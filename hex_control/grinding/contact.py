@@ -273,9 +273,10 @@ def clip_region(x_mm: np.ndarray, z_mm: np.ndarray, cutter_x: np.ndarray, cutter
         new_x = merged_x
     original_z, cutter_at = np.interp(new_x, near_x, near_z), np.interp(new_x, cutter_x, cutter_z)
     keep = cutter_at <= original_z + TOUCH_MM * 1e-2  # touching (within 1e-9 mm): a crossing there
-    if added:
-        keep |= ~np.isin(new_x, added, kind="sort") if len(added) > 4 else ~np.any(
-            new_x[:, None] == np.array(added)[None, :], axis=1)
+    # ... and every point that is not an added one (with none added, every point: it dropped
+    # the uncut contour points then, found against the compiled kernel on 2026-12-07)
+    keep |= ~np.isin(new_x, added, kind="sort") if len(added) > 4 else ~np.any(
+        new_x[:, None] == np.array(added, float)[None, :], axis=1)
     return lo, hi, new_x[keep], np.minimum(original_z, cutter_at)[keep]
 
 
