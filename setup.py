@@ -20,9 +20,11 @@ NODES = {
 }
 
 # The pass simulation's contact kernel in C (grinding/_contact_c.c; contact.py runs the same
-# algorithm in Python when it is not built). No fused multiply-add: the Python kernel's roundings.
+# algorithm in Python when it is not built). No fused multiply-add, and libm's sin, cos and tan
+# as Python's math calls them: the Python kernel's roundings.
 CONTACT_KERNEL = Extension(f"{PACKAGE}.grinding._contact_c", [f"{PACKAGE}/grinding/_contact_c.c"],
-                           extra_compile_args=["-O2", "-ffp-contract=off"], optional=True)
+                           extra_compile_args=["-O2", "-ffp-contract=off", "-fno-builtin-sin", "-fno-builtin-cos",
+                                               "-fno-builtin-tan"], optional=True)
 
 setup(
     name=PACKAGE,

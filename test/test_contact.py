@@ -304,6 +304,9 @@ def test_the_compiled_kernel_refuses_malformed_buffers_and_survives_nan():
         kernel.clip_region(x, z, np.array([1.0, 2.0]), np.array([0.5]), 1.0, 1e-9)
     with pytest.raises(ValueError, match="contiguous"):  # the wrapper copies such arrays; the kernel refuses them
         kernel.clip_region(x, z, x[::2], z[::2], 1.0, 1e-9)
+    misaligned = np.frombuffer(b"\0" * (8 * 11 + 1), offset=1)  # 11 float64 one byte off their alignment
+    with pytest.raises(ValueError, match="aligned"):
+        kernel.contact_patch(misaligned, z, 5.0, 1.0, 0.3, 80.0, 1e-7, 1.0)
     assert kernel.clip_region(x, z, np.array([3.0, 6.0]), np.full(2, np.nan), 1.0, 1e-9) is None
     # a NaN at the cutter's end (its last x, or a NaN height after its part below the top) made
     # the window negative: a heap overflow (helper attack, 2026-12-07); an x that does not rise, too

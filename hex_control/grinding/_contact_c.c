@@ -6,7 +6,8 @@
  * (with contact._below and contact._interp_sorted) in the same operations and order, for
  * any number of points: on a few points the results are the Python kernel's to the last
  * bit, on many its numpy path's to rounding (numpy sums pairwise). Built by setup.py with
- * -ffp-contract=off (no fused multiply-add, which would round differently); contact.py
+ * -ffp-contract=off (no fused multiply-add, which would round differently) and sin, cos and
+ * tan not built in (GCC would merge sin and cos into sincos, not math.sin's); contact.py
  * falls back to the Python kernel when this module is missing, and test_contact.py holds
  * the two together. Arrays come as float64 buffers (contiguous); outputs as bytes of
  * float64. Units: mm, rad.
@@ -14,6 +15,7 @@
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -63,8 +65,13 @@ static void interp_sorted(const double *at, Py_ssize_t m, const double *xs, cons
 
 static int float_buffers(Py_buffer *views, int count) {
     for (int k = 0; k < count; k++) {
-        if (views[k].len % (Py_ssize_t)sizeof(double) != 0 || views[k].len == 0) {
-            PyErr_SetString(PyExc_ValueError, "need non-empty float64 arrays");
+        if (views[k].len % (Py_ssize_t)sizeof(double) != 0 || views[k].len == 0
+            || (uintptr_t)views[k].buf % sizeof(double) != 0) {
+            PyErr_SetString(PyExc_ValueError, "need non-empty, aligned float64 arrays");
+            return 0;
+        }
+        if (views[k].len > PY_SSIZE_T_MAX / 64) { /* the work arrays' sizes stay far from overflow */
+            PyErr_SetString(PyExc_ValueError, "arrays too long");
             return 0;
         }
     }
@@ -130,10 +137,18 @@ static PyObject *contact_patch(PyObject *self, PyObject *args) {
     return Py_BuildValue("ddlO", length, moment, runs, tip_inside ? Py_True : Py_False);
 }
 
-static int compare_doubles(const void *a, const void *b) { /* a total order: NaN last */
-    double p = *(const double *)a, q = *(const double *)b;
-    if (isnan(p) || isnan(q)) return (isnan(p) != 0) - (isnan(q) != 0);
-    return (p > q) - (p < q);
+/* Python's list.sort of the crossings merged into the points, nearly sorted already: a stable
+ * insertion sort (equal values, -0.0 and +0.0, keep their order as in Python; NaN stops a walk) */
+static void sort_stable(double *values, Py_ssize_t m) {
+    for (Py_ssize_t k = 1; k < m; k++) {
+        double value = values[k];
+        Py_ssize_t j = k;
+        while (j > 0 && values[j - 1] > value) {
+            values[j] = values[j - 1];
+            j--;
+        }
+        values[j] = value;
+    }
 }
 
 /* clip_region(x, z, cutter_x, cutter_z, top, keep_mm) -> None or (lo, hi, new x, new z) with
@@ -252,7 +267,7 @@ static PyObject *clip_region(PyObject *self, PyObject *args) {
         fresh[m++] = merged[k + 1];
     }
     if (crossed) { /* a crossing at a vertex (within 1e-9 mm) is the vertex */
-        qsort(fresh, (size_t)m, sizeof(double), compare_doubles);
+        sort_stable(fresh, m);
         Py_ssize_t kept = 1;
         for (Py_ssize_t k = 1; k < m; k++)
             if (fresh[k] - fresh[k - 1] > 1e-9) out_x[kept++] = fresh[k];

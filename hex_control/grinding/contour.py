@@ -165,7 +165,7 @@ def _offset_for(x_mm, above_mm, level, wanted_mm3: float, width_mm: float, *, de
                 break
             low = high - 2 * (high - low)
         else:  # (heights of 1e16 mm and more: the doubling no longer moves in floats)
-            raise ValueError(f"no level removes {wanted_mm3:g} mm^3 within 2^{BRACKET_DOUBLINGS} mm of the top")
+            raise ValueError(f"no level removes {wanted_mm3:g} mm^3 in {BRACKET_DOUBLINGS} doublings below the top")
     for _ in range(200):
         middle = (low + high) / 2
         if removed(middle) > wanted_mm3:

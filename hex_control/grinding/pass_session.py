@@ -286,7 +286,7 @@ class PassSession:
         start = time.perf_counter()
         try:
             planned = self._plan(request, scan)
-        except (PlanningError, ValueError, FloatingPointError) as exc:
+        except (PlanningError, ValueError, ArithmeticError) as exc:  # ArithmeticError: FloatingPointError and kin
             return refusal(request, str(exc), "unplannable")
         return dataclasses.replace(planned, planning_s=time.perf_counter() - start)
 
