@@ -122,7 +122,7 @@ def graph_case(quick: bool) -> list[str]:
         lines.append(f"{name:>10}: {run['sim_s']:.1f} simulated s in {run['wall_s']:.1f} wall s = {rate:.2f} simulated "
                      f"s per wall s (runs: {', '.join(f'{r:.2f}' for r in rates)}; {rate / PER_SAMPLE_FLOW:.1f}x the "
                      f"per-sample flow's {PER_SAMPLE_FLOW}); clock standing for planning "
-                     f"{100 * run['standing_s'] / run['wall_s']:.0f} % of the wall time; "
+                     f"{100 * run['standing_s'] / run['wall_s']:.1f} % of the wall time; "
                      f"{run['outcome']['reason']} after {run['outcome']['passes']} passes")
         per_node = ", ".join(f"{node} {cpu / run['sim_s']:.3f}" for node, cpu in  # the plant first
                              sorted(run["cpu_s"].items(), key=lambda item: (item[0] != "plant", -item[1])))
