@@ -7,7 +7,7 @@ import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 
 from hex_control.config import config_file, node_parameters
-from hex_control.ros.app.graph import NodeGraph, graph_nodes
+from hex_control.ros.app.graph import RESTART_PARTICIPANT_IDS, NodeGraph, graph_nodes
 from ros_harness import wait_until
 
 
@@ -29,11 +29,12 @@ def test_a_dump_writes_every_threads_traceback_into_the_nodes_log_and_the_node_r
     assert codes == {"kinematics": 0}
 
 
-def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, tmp_path):
+def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, tmp_path):
     """Issue 39 (the suite's CPU; a graph starts on 2.2 CPU s instead of 3.8): the graph's
     nodes are forked from one server that imported them (node_forks.py). A forked node logs
     as its own process, its exit code comes back (a SIGKILL's -9, a Ctrl-C's 0), a restart
-    forks it again, and one whose server died is still followed: running until it is gone."""
+    forks it again, as a DDS participant id of its own (not its dead predecessor's), and one
+    whose server died is still followed: running until it is gone."""
     import os
     import signal
 
@@ -52,6 +53,12 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, tmp_pa
         again = graph.processes["kinematics"]
         assert again.pid != first.pid and again.poll() is None
         wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="the node forked again")
+        probe = ros.node("probe")
+        participant_ids = wait_until(lambda: {  # a GUID's bytes 8-11: its participant id, little-endian
+            int.from_bytes(bytes(info.endpoint_gid)[8:12], "little")
+            for info in probe.get_publishers_info_by_topic("/diagnostics") if info.node_name == "kinematics"}
+            - {0} or None, 30.0, what="the restarted node's publisher")
+        assert participant_ids == {RESTART_PARTICIPANT_IDS[0]}
         graph.forks.server.kill()  # the nodes are in sessions of their own: they run on
         graph.forks.server.wait()
         wait_until(lambda: graph.forks.server_gone, 10.0, what="the server's end read")
