@@ -345,43 +345,6 @@ def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossin
         assert recorded[f"/cell{k}/grinding/pass_command"] >= outcomes[session.seed]["passes"]
 
 
-def test_a_namespaced_cell_runs_the_same_job_as_the_root(ros_env, tmp_path):
-    """Issue 37 item 7: every node and every parameter file lands in the cell's namespace, so
-    the same seed gives the same job under /cell3 as at the root, to 1e-9: the remaining
-    height, the charge and the K1 every pass was planned with (before, the pass predictor ran
-    as /cell3/pass with default parameters on the root's results: K1 plan 10.0 every pass).
-    The two cells run at once, in one domain."""
-    import threading
-
-    sessions = {namespace: JobSession(tmp_path / (namespace.strip("/") or "root"), seed=5, plant_overrides=BEAD,
-                                      namespace=namespace, record=False) for namespace in ("", "/cell3")}
-    outcomes = {}
-    with sessions[""], sessions["/cell3"]:
-        for session in sessions.values():
-            session.start_job(30.0, RESET_TIME_S, job_id="same-job")
-        threads = [threading.Thread(target=lambda n=n, s=s: outcomes.update({n: s.wait_for_outcome(600.0)}))
-                   for n, s in sessions.items()]
-        for thread in threads:
-            thread.start()
-        for thread in threads:
-            thread.join()
-    root, cell = (sessions[n].record for n in ("", "/cell3"))
-    assert outcomes[""]["passes"] >= 2 and outcomes[""]["reason"] in ("done", "quit"), outcomes
-    plans = {n: [sessions[n].record.commands[k]["specific_energy_j_mm3"] for k in range(outcomes[n]["passes"])]
-             for n in outcomes}
-    assert plans[""][0] == 10.0 and plans[""][1] != 10.0, plans  # the predictor moved K1 after pass 0
-    assert cell.k1_predictions and root.k1_predictions  # each cell's observer heard its own predictor
-    for key in ("passes", "reason"):
-        assert outcomes["/cell3"][key] == outcomes[""][key], key
-    for key in ("material_remaining_mm", "total_charge", "time_remaining_s"):
-        assert outcomes["/cell3"][key] == pytest.approx(outcomes[""][key], abs=1e-9), key
-    assert plans["/cell3"] == pytest.approx(plans[""], abs=1e-9)
-    for k in range(outcomes[""]["passes"]):
-        assert cell.commands[k] == pytest.approx(root.commands[k], abs=1e-9), k
-        assert cell.results[k]["measured_cut_depth_mm"] == pytest.approx(root.results[k]["measured_cut_depth_mm"],
-                                                                         abs=1e-9)
-
-
 def _job_log_results(jobs: Path) -> int:
     results = 0
     for log in jobs.glob("*.jsonl"):
