@@ -31,14 +31,15 @@ MACHINE_SIDE = ("plant", "kinematics", "input_shaper", "force_controller")
 #: pass's tool path and trajectories are latched (handed over whole), so they need no wait.
 STREAM_EDGES = (("plant/wrench", "plant", "force_controller"),
                 ("plant/force_axis_command", "force_controller", "plant"))
-#: DDS participant ids a restarted node takes, one after another (Fast DDS's ports of id n:
-#: 7410 + 250 domain + 2n and up, so at most 119). Left to itself, a node restarted after a
-#: crash takes the first free id, which is its dead predecessor's: the other participants
-#: still hold that one's SHM port and locators until its lease ends, and sent the new one
-#: nothing, not even later (4 of 5 restarts of a sequence planner stopped mid-pass, none of 4
-#: with an id of its own). A first start takes the lowest free id, as every process does.
-RESTART_PARTICIPANT_IDS = range(60, 120)
-_PROFILES_VARIABLES = ("FASTDDS_DEFAULT_PROFILES_FILE", "FASTRTPS_DEFAULT_PROFILES_FILE")
+#: DDS participant ids a node restarted after a crash takes, one after another. Every
+#: process's participant is id 0 on the first free ports (7410 + 250 domain + 2n): a node
+#: started again after it was killed takes its dead predecessor's, which the other
+#: participants still hold until its lease ends. A sequence planner stopped in a pass, killed
+#: and restarted so heard nothing from the graph in 4 of 5 tries, in none of 4 with an id of
+#: its own (scripts/hung_planner_restart.py). Below 32: under LOCALHOST discovery a
+#: participant announces itself to ids 0..31 only; from the top, clear of the lowest ports
+#: the graph's own participants take.
+RESTART_PARTICIPANT_IDS = range(31, 19, -1)
 
 
 def missing_stream_edges(node) -> list[str]:
@@ -155,7 +156,8 @@ class NodeGraph:
         self.env["PYTHONFAULTHANDLER"] = "1"  # SIGABRT leaves every thread's traceback in the log
         self.processes: dict[str, subprocess.Popen | ForkedNode] = {}
         self.starts: dict[str, int] = {}
-        self.restarts = 0  # of any node: the next restart's participant id
+        self.restarts = 0  # of nodes after a crash: the next one's participant id
+        self._crashed: set[str] = set()  # killed: their participants left without a word
         # nodes forked from one process that imported them (node_forks.py): a graph start pays
         # the imports once; HEX_NODE_FORKS=0 starts each from its command line instead
         self.forks_enabled = self.env.get("HEX_NODE_FORKS", "1") != "0"
@@ -166,8 +168,10 @@ class NodeGraph:
             count = self.starts.get(spec.name, 0)
             log_path = self.log_dir / f"{spec.name}{'-' + str(count) if count else ''}.log"
             prefix, extra = self.placement.get(spec.name, ([], {}))
-            if count:
-                extra = {**extra, **self._restart_profile(log_path)}
+            previous = self.processes.get(spec.name)
+            if spec.name in self._crashed or (previous is not None and previous.poll() is not None):
+                self._crashed.discard(spec.name)
+                extra = {**extra, **self._restart_profile(log_path, {**self.env, **extra})}
             if self.forks_enabled and not prefix:  # forked from the server that holds the imports
                 if self.forks is None or self.forks.server_gone:
                     self.forks = NodeForks(sorted({s.module_path for s in self.specs.values()}), self.env)
@@ -180,14 +184,15 @@ class NodeGraph:
                         start_new_session=True)
             self.starts[spec.name] = count + 1
 
-    def _restart_profile(self, log_path: Path) -> dict[str, str]:
-        """The environment giving a restarted node a DDS participant id of its own (see
-        RESTART_PARTICIPANT_IDS); none where the user set a Fast DDS profile of theirs."""
-        if any(self.env.get(name) for name in _PROFILES_VARIABLES):
+    def _restart_profile(self, log_path: Path, env: dict) -> dict[str, str]:
+        """The environment giving a node restarted after a crash a DDS participant id of its
+        own (see RESTART_PARTICIPANT_IDS); none where the node has a Fast DDS profile of the
+        user's."""
+        if env.get("FASTDDS_DEFAULT_PROFILES_FILE"):
             return {}
         participant_id = RESTART_PARTICIPANT_IDS[self.restarts % len(RESTART_PARTICIPANT_IDS)]
         self.restarts += 1
-        profile = log_path.with_suffix(".fastdds.xml")
+        profile = log_path.with_suffix(".fastdds.xml").resolve()
         profile.write_text(
             '<?xml version="1.0" encoding="UTF-8"?>\n<dds xmlns="http://www.eprosima.com"><profiles>\n'
             '  <participant profile_name="restarted_node" is_default_profile="true">\n'
@@ -200,6 +205,7 @@ class NodeGraph:
         process = self.processes.pop(name)
         process.kill()
         process.wait()
+        self._crashed.add(name)
 
     def stop(self, name: str | None = None, timeout_s: float = 10.0) -> dict[str, int]:
         """SIGINT, then to those still running ``timeout_s`` later SIGABRT (a hung node writes
