@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 from pathlib import Path
 
@@ -12,6 +13,11 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # a `hexctl daemon` a test's verb starts (ros_cli/daemon.py) ends a minute after its last
 # request, not ten: the run's domains are free soon after the run
 os.environ.setdefault("HEXCTL_DAEMON_IDLE_S", "60")
+# a run started in the background of a script (`make test &`) ignores SIGINT, and so did every
+# process a test started: the tests of Ctrl-C on hexctl verbs waited for ever (3 of 3 under a
+# background `/usr/bin/time pytest`). Handled here, it is the default again in every child.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 import pytest
 
