@@ -14,6 +14,8 @@ The job is issue 37's: a 60 mm bead, seed 5, a 30 s deadline.
 
 from __future__ import annotations
 
+import signal
+
 import numpy as np
 import pytest
 import rclpy
@@ -349,10 +351,21 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     sequence planner stops the pass in flight, the force controller retracts within its ramp
     (0.5 s), and the plant reports the pass as not run as planned."""
     a = attack()
+    stops = []
+    a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
     start_job(a)
     in_pass(a, 1)
-    cancelled_at = a.record.force[-1][0]
-    a.session.cancel_job()
+    # the cancel is wall time and the lock-step clock runs on meanwhile: beside two CPU
+    # burners the pass once ended first (COMPLETED). Its clock stands while the force
+    # controller does not answer, until the stop is out
+    controller = a.session.graph.processes["force_controller"]
+    controller.send_signal(signal.SIGSTOP)
+    try:
+        a.session.cancel_job()
+        a.spin_until(lambda: stops, "the sequence planner's stop of pass 1", 60.0)
+        cancelled_at = a.record.force[-1][0]  # the clock's last state, the observer's by now
+    finally:
+        controller.send_signal(signal.SIGCONT)
     outcome = run_to_end(a)
     assert outcome["reason"] == "cancelled"
     result = a.spin_until(lambda: a.record.results.get(1), "pass 1's result")
