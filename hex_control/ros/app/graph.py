@@ -36,7 +36,7 @@ STREAM_EDGES = (("plant/wrench", "plant", "force_controller"),
 #: started again after it was killed takes its dead predecessor's, which the other
 #: participants still hold until its lease ends. A sequence planner stopped in a pass, killed
 #: and restarted so heard nothing from the graph in 4 of 5 tries, in none of 4 with an id of
-#: its own (scripts/hung_planner_restart.py). Below 32: under LOCALHOST discovery a
+#: its own (docs/known_problems.md). Below 32: under LOCALHOST discovery a
 #: participant announces itself to ids 0..31 only; from the top, clear of the lowest ports
 #: the graph's own participants take.
 RESTART_PARTICIPANT_IDS = range(31, 19, -1)
