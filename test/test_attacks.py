@@ -1,5 +1,6 @@
-"""The attack suite of issue 37: the demo's graph, one hostile or clumsy input per test, sent
-from this process (a second process on the cell's domain, under a name of its own).
+"""The attack suite of issue 37: the demo's graph, hostile or clumsy inputs sent from this
+process (a second process on the cell's domain, under a name of its own): the seven the
+nodes refuse at their door on one job, those that stop, restart or cancel one per test.
 
 For every attack the job must keep its word (issue 37, acceptance):
 - the part's deepest gouge stays <= 0.1 mm (seed 002 section 3's tolerance);
