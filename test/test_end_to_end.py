@@ -106,11 +106,9 @@ def test_a_job_on_the_3pru_head_ends_as_the_policy_intends(ros_env, tmp_path):
     assert_contact_when_planned(session.record)
 
 
-def restart_mid_job(session, deadline_s: float | None, node: str, when, what: str) -> dict:
-    """Start a job (unless ``deadline_s`` is None: started), kill ``node`` once ``when()``
-    holds and start it again; the job's outcome."""
-    if deadline_s is not None:
-        session.start_job(deadline_s, RESET_TIME_S)
+def restart_mid_job(session, deadline_s: float, node: str, when, what: str) -> dict:
+    """Start a job, kill ``node`` once ``when()`` holds and start it again; the job's outcome."""
+    session.start_job(deadline_s, RESET_TIME_S)
     session.spin_until(when, 300.0, what)
     session.graph.kill(node)
     session.graph.start(node)
@@ -124,16 +122,13 @@ def test_a_restarted_sequence_planner_resumes_the_job(ros_env, tmp_path):
     planned. (Restarted on its dead predecessor's DDS ports, the planner heard nothing from
     the graph: 4 of 5 such restarts stalled the job; docs/known_problems.md.)"""
     with JobSession(tmp_path, seed=4, plant_overrides=STEADY, record=False) as session:
-        def hung_in_pass_0():
-            if 0 not in session.record.trajectories:
-                return False
-            session.graph.processes["sequence_planner"].send_signal(signal.SIGSTOP)
-            return True
-
         session.start_job(22.0, RESET_TIME_S)
-        session.spin_until(hung_in_pass_0, 300.0, "pass 0's force trajectory")
-        outcome = restart_mid_job(session, None, "sequence_planner", lambda: 0 in session.record.results,
-                                  "pass 0's result")
+        session.spin_until(lambda: 0 in session.record.trajectories, 300.0, "pass 0's force trajectory")
+        session.graph.processes["sequence_planner"].send_signal(signal.SIGSTOP)
+        session.spin_until(lambda: 0 in session.record.results, 300.0, "pass 0's result")
+        session.graph.kill("sequence_planner")
+        session.graph.start("sequence_planner")
+        outcome = session.wait_for_outcome(400.0)
         restarted_log = session.graph.log_tail("sequence_planner", 200)
         logs = {name: session.graph.log_tail(name, 15) for name in ("plant", "pass_planner", "force_controller")}
     assert "resumed job" in restarted_log
