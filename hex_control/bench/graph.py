@@ -103,7 +103,7 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
 def graph_case(quick: bool) -> list[str]:
     from hex_control.plant.reset_time import calibrate_reset_time
 
-    bead_length_mm, deadline_s, seed = (60.0, 15.0, 7) if quick else (60.0, 30.0, 7)
+    bead_length_mm, deadline_s, seed = (60.0, 10.0, 7) if quick else (60.0, 30.0, 7)
     rounds, variants = (1, ("demo", "single")) if quick else (2, tuple(VARIANTS))
     reset = calibrate_reset_time(bead_length_mm)["zvd"].reset_time_s
     lines = [f"job: seed {seed}, {bead_length_mm:g} mm bead, deadline {deadline_s:g} s, lock-step; "
