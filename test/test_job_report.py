@@ -92,6 +92,10 @@ def test_report_of_a_record_writes_its_json_and_k1_plot(tmp_path):
     assert (tmp_path / "specific_energy.png").stat().st_size > 10_000
     assert not (tmp_path / "contours.png").exists()  # nothing recorded, nothing drawn
     assert "outlook_at_start" not in summary  # no feedback recorded: nothing said
+    without = tmp_path / "without_plots"
+    assert write_report(record, without, plots=False) == summary  # --no-plots: the same summary, no PNG
+    assert (without / "job.json").read_text() == (tmp_path / "job.json").read_text()
+    assert not list(without.glob("*.png"))
 
 
 def test_the_first_feedbacks_word_on_the_deadline_is_in_the_summary():

@@ -34,6 +34,7 @@ def add_parsers(commands) -> None:
     demo.add_argument("--machine-peers", default="", help="ROS_STATIC_PEERS for the machine-side nodes")
     demo.add_argument("--no-record", action="store_true", help="do not record the messages (recording/: "
                       "rosbag2's MCAP layout, for Foxglove, PlotJuggler, hexctl play)")
+    demo.add_argument("--no-plots", action="store_true", help="write the report without its PNGs")
     demo.add_argument("--resume", metavar="DIR", default=None,
                       help="take up the unfinished job of a run cut off in DIR (its --output): the planner resumes it "
                            "from DIR/jobs, the plant the part as last scanned, with the options the run started with "
@@ -70,6 +71,8 @@ def add_parsers(commands) -> None:
     campaign.add_argument("--dulling", type=float, default=None, help="K1 growth per pass (default 0)")
     campaign.add_argument("--machine", choices=sorted(MACHINES), default=None, help="hexapod (default) or pru3")
     campaign.add_argument("--no-record", action="store_true", help="do not record each job's messages")
+    campaign.add_argument("--no-plots", action="store_true",
+                          help="write each job's report without its PNGs (about 1.7 CPU s a job)")
     campaign.add_argument("--job-timeout", type=float, default=1800.0, help="wall seconds a job may take (1800)")
     campaign.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
 
@@ -101,7 +104,7 @@ def _demo(args) -> int:
         return run_demo(args.resume or args.output, options, machine_file=MACHINES[options["machine"]],
                         jobs=args.jobs or 1, machine_host=args.machine_host.split() or None,
                         machine_peers=args.machine_peers, restart_planner_after=args.restart_planner_after,
-                        record=not args.no_record, resume=args.resume is not None)
+                        record=not args.no_record, resume=args.resume is not None, plots=not args.no_plots)
     except (GraphFailure, TimeoutError) as exc:  # a graph that did not start or answer: TimeoutError
         from hex_control import cli
 
@@ -184,7 +187,7 @@ def _campaign(args) -> int:
     executor = (RayExecutor(args.ray or None, num_cpus=args.workers) if args.ray is not None
                 else ProcessExecutor(args.workers))
     settings = campaign_settings(options, MACHINES[options["machine"]], record=not args.no_record,
-                                 timeout_s=args.job_timeout)
+                                 timeout_s=args.job_timeout, plots=not args.no_plots)
     jobs = seeded_jobs(options["seed"], args.jobs, args.output, settings)
     where = f"Ray at {args.ray}" if args.ray else "a local Ray" if args.ray is not None else \
         f"{executor.workers} local worker processes"

@@ -121,17 +121,20 @@ def start_policy(record: JobRecord):
     return solve(process, charges, grid, model), charges
 
 
-def write_report(record: JobRecord, out: Path, policy=None) -> dict:
-    """JSON and PNGs of one job in ``out``; ``policy`` (the start policy) for the map."""
+def write_report(record: JobRecord, out: Path, policy=None, plots: bool = True) -> dict:
+    """JSON, the scanned profiles (CSV) and, with ``plots``, the PNGs of one job in ``out``;
+    ``policy`` (the start policy) for the map."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     summary = record.summary()
     (out / "job.json").write_text(json.dumps(summary, indent=2, default=float))
-    _plot_contours(record, out / "contours.png")
     if record.contours:  # the scans, for `hexctl pass --contour`
         (out / "profiles").mkdir(exist_ok=True)
     for index, (contour, _) in record.contours.items():
         contour.to_csv(out / "profiles" / f"after_pass_{index}.csv")
+    if not plots:  # about 1.7 CPU s a job: a campaign of many may do without
+        return summary
+    _plot_contours(record, out / "contours.png")
     _plot_force(record, out / "force_tracking.png")
     _plot_struts(record, out / "strut_lengths.png")
     _plot_specific_energy(record, out / "specific_energy.png")

@@ -20,10 +20,11 @@ from hex_control.campaign.domains import lease_domain
 from hex_control.config import config_file
 
 
-def campaign_settings(options: dict, machine_file: str, record: bool = True, timeout_s: float = 1800.0) -> dict:
+def campaign_settings(options: dict, machine_file: str, record: bool = True, timeout_s: float = 1800.0,
+                      plots: bool = True) -> dict:
     """What every cell of a campaign shares: the run ``options`` (RUN_DEFAULTS' keys;
     lock-step only: a campaign's outcomes must depend on the seeds alone), the machine
-    file, whether to record, the calibrated t_R with the input shaper (printed, as the
+    file, whether to record and to draw each report's PNGs, the calibrated t_R with the input shaper (printed, as the
     demo prints it) and a job's timeout (s)."""
     from hex_control.ros.app.demo import calibrated_reset_time
 
@@ -31,7 +32,7 @@ def campaign_settings(options: dict, machine_file: str, record: bool = True, tim
         raise ValueError("a campaign runs its jobs in lock-step (their outcomes then depend on their seeds "
                          "alone); --realtime is for watching one job: hexctl demo --realtime")
     reset_time_s = calibrated_reset_time(options["bead_length"], options["deadline"], machine_file)
-    return {"options": dict(options), "machine_file": machine_file, "record": bool(record),
+    return {"options": dict(options), "machine_file": machine_file, "record": bool(record), "plots": bool(plots),
             "reset_time_s": float(reset_time_s), "timeout_s": float(timeout_s)}
 
 
@@ -46,7 +47,8 @@ def grind_cell(job: Job) -> dict:
     with lease_domain(os.environ) as domain:
         summary, _ = run_seeded_job(Path(job.directory), {**settings["options"], "seed": job.seed},
                                     reset_time_s=settings["reset_time_s"], machine_file=settings["machine_file"],
-                                    quiet=True, record=settings["record"], timeout_s=settings["timeout_s"])
+                                    quiet=True, record=settings["record"], timeout_s=settings["timeout_s"],
+                                    plots=settings["plots"])
     return {**json.loads(json.dumps(summary, default=float)), "_where": {"ros_domain_id": domain}}
 
 

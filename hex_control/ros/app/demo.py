@@ -38,11 +38,12 @@ def use_private_domain(environment) -> bool:
 
 def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None, machine_file: str,
                    quiet: bool = False, placement: dict | None = None, restart_planner_after: int | None = None,
-                   record: bool = True, resume: bool = False, timeout_s: float = 1800.0) -> tuple[dict, object]:
+                   record: bool = True, resume: bool = False, timeout_s: float = 1800.0,
+                   plots: bool = True) -> tuple[dict, object]:
     """One job of ``hexctl demo`` or of a campaign's cell, on a fresh graph: the run's
     ``options`` (:func:`run_options`, its seed included) stored in ``directory`` (unless
     resumed), the job run, its report written (``job.json`` with ``wall_s`` and
-    ``simulated_pass_time_s``). The summary and the start policy's charges. A graph that
+    ``simulated_pass_time_s``; the PNGs unless not ``plots``). The summary and the start policy's charges. A graph that
     fails raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
     directory, seed = Path(directory), options["seed"]
     if not resume:
@@ -63,7 +64,7 @@ def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None
         raise
     wall = time.monotonic() - start
     policy, charges = start_policy(job)
-    summary = write_report(job, directory, policy)
+    summary = write_report(job, directory, policy, plots=plots)
     summary["wall_s"] = wall
     summary["simulated_pass_time_s"] = sum(r["duration_s"] for r in job.results.values())
     (directory / "job.json").write_text(json.dumps(summary, indent=2, default=float))
@@ -73,14 +74,15 @@ def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None
 def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_ingersoll.yaml", jobs: int = 1,
              machine_host: list[str] | None = None,
              machine_peers: str = "", restart_planner_after: int | None = None, record: bool = True,
-             resume: bool = False) -> int:
+             resume: bool = False, plots: bool = True) -> int:
     """``hexctl demo``: calibrate t_R, run ``jobs`` seeded jobs, report each and, for several,
     the statistics. ``options``: :func:`run_options` (seed, deadline, bead, machine,
     namespace ...), stored into each job's directory as it starts; ``machine_file``: the
     machine option's file (config/machines/). 0 only if every job ended
     as its policy intended, without burn. The graph runs in a ROS domain of its own unless
     ROS_DOMAIN_ID is set, and under the ``namespace`` option if given; each job's messages
-    are recorded into its ``recording/``. ``resume``: take up the unfinished job of an earlier
+    are recorded into its ``recording/`` (unless not ``record``), its report drawn as PNGs
+    (unless not ``plots``). ``resume``: take up the unfinished job of an earlier
     run cut off in ``output`` (its deadline and t_R come from its log, the rest of its options
     from its RUN_FILE, through ``options``) instead. A node that dies or a loop that stands
     raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
@@ -104,7 +106,8 @@ def run_demo(output: str, options: dict, *, machine_file: str = "machines/nist_i
         directory = out / f"job_{seed + k:03d}" if jobs > 1 else out
         summary, charges = run_seeded_job(directory, {**options, "seed": seed + k}, reset_time_s=reset_time_s,
                                           machine_file=machine_file, quiet=jobs > 1, placement=placement,
-                                          restart_planner_after=restart_planner_after, record=record, resume=resume)
+                                          restart_planner_after=restart_planner_after, record=record, resume=resume,
+                                          plots=plots)
         summaries.append(summary)
         print(job_line(seed + k, summary), flush=True)
     if jobs > 1:
