@@ -330,7 +330,7 @@ def test_a_node_killed_under_hexctl_demo_ends_it_in_one_line_and_resume_keeps_th
     assert refused.returncode == 2 and refused.stderr.count("\n") == 1, refused.stderr
     assert "--seed 0 (the run's: 6)" in refused.stderr
 
-    resumed = subprocess.run([hexctl, "demo", "--resume", str(tmp_path), "--no-record"], env=ros_env,
+    resumed = subprocess.run([hexctl, "demo", "--resume", str(tmp_path), "--no-record", "--no-plots"], env=ros_env,
                              capture_output=True, text=True, timeout=400)
     assert resumed.returncode == 0, resumed.stdout[-3000:] + resumed.stderr[-3000:]
     assert "resuming the unfinished job" in resumed.stdout and "(seed 6)" in resumed.stdout
