@@ -70,14 +70,43 @@ def spawn(ros_env, tmp_path, request):
             print(f"--- {process.log_path.name} (exit {process.process.returncode}):\n{process.output()[-4000:]}")
 
 
-#: the modules whose tests run whole graphs or builds (tens of seconds each), collected first: the
-#: two workers end together on the short tests (longest first)
-SLOW_FIRST = ("test_attacks.py", "test_end_to_end.py", "test_colcon_build.py", "test_campaign.py", "test_ros_cli.py",
-              "test_bench.py", "test_hostile_inputs.py", "test_determinism.py", "test_demo.py")
+#: the modules whose tests run whole graphs or builds (tens of seconds each, half the suite's
+#: wall time), costliest first
+SLOW_FIRST = ("test_end_to_end.py", "test_ros_cli.py", "test_attacks.py", "test_bench.py", "test_campaign.py",
+              "test_determinism.py", "test_demo.py", "test_colcon_build.py", "test_hostile_inputs.py")
+#: of those, the modules whose fixtures serve the whole module: dealt to one worker whole
+WHOLE_MODULES = ("test_ros_cli.py",)
 
 
-def pytest_collection_modifyitems(items):
-    items.sort(key=lambda item: SLOW_FIRST.index(item.path.name) if item.path.name in SLOW_FIRST else len(SLOW_FIRST))
+def pytest_collection_modifyitems(config, items):
+    """Deal the slow tests out to the xdist workers, each worker's share at the head of the
+    block the worksteal scheduler first sends it (it splits the collection into equal
+    contiguous blocks, and an idle worker steals from the tail of another's queue). Collected
+    first as one run, they all went to one worker, which ran them one after another (372 s)
+    while the other two ran the short tests and then idled; without xdist: slow first."""
+    workers = getattr(config, "workerinput", {}).get("workercount", 1)
+    def is_slow(item) -> bool:  # of those modules, the tests that start processes (the unit tests are quick)
+        return item.path.name in SLOW_FIRST and "ros_env" in getattr(item, "fixturenames", ())
+
+    slow = sorted(filter(is_slow, items), key=lambda item: SLOW_FIRST.index(item.path.name))
+    short = [item for item in items if not is_slow(item)]
+    units: list[list] = []  # each dealt to one worker: a test, or a whole module
+    for item in slow:
+        if units and item.path.name in WHOLE_MODULES and units[-1][0].path == item.path:
+            units[-1].append(item)
+        else:
+            units.append([item])
+    shares: list[list] = [[] for _ in range(workers)]
+    for unit in units:  # to the share with the fewest slow tests so far
+        min(shares, key=len).extend(unit)
+    ordered, left = [], len(items)
+    for k, share in enumerate(shares):  # the scheduler's block sizes, as worksteal computes them
+        block = left // (workers - k)
+        filler = max(block - len(share), 0)
+        ordered += share + short[:filler]
+        del short[:filler]
+        left -= block
+    items[:] = ordered + short
 
 
 @pytest.hookimpl(wrapper=True)
