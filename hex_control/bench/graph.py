@@ -87,7 +87,12 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
         cpu_start = {name: cpu_s(p.pid) for name, p in processes.items()}
         own_start = own_cpu_s()
         sim_start, wall_start = session.record.force[-1][0], time.monotonic()
-        outcome = session.wait_for_outcome(600.0)
+        try:
+            outcome = session.wait_for_outcome(600.0)
+        except grind_job.GraphFailure:  # the logs go with the benchmark's temporary folder: say them now
+            for name in ("plant", "force_controller", "kinematics", "pass_planner"):
+                print(f"--- {name}:\n{session.graph.log_tail(name, 40)}")
+            raise
         wall = time.monotonic() - wall_start
         # to the last pass's scan: a lock-step plant runs on a little after it (plan_ahead_s)
         results = session.record.results.values()
