@@ -219,9 +219,9 @@ def test_a_terminated_demo_stops_its_graph(ros_env, tmp_path):
 
 
 def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tmp_path):
-    """The plant restarted with the plant in real time (at twice the wall clock; in lock-step:
-    test_attacks.py): the clock jumps back while pass 1 is announced; the job continues or aborts by the policy, it does
-    not wait forever, and the force controller notes the jump once."""
+    """The plant restarted in real time (at twice the wall clock; in lock-step: test_attacks.py):
+    the clock jumps back while pass 1 is announced; the job continues or aborts by the
+    policy, it does not wait forever, and the force controller notes the jump once."""
     with JobSession(tmp_path, seed=5, mode="realtime", real_time_factor=2.0, plant_overrides=BEAD,
                     record=False) as session:
         session.start_job(30.0, RESET_TIME_S)
