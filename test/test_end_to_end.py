@@ -224,7 +224,7 @@ def test_a_plant_restarted_mid_job_in_real_time_ends_the_job_cleanly(ros_env, tm
     policy, it does not wait forever, and the force controller notes the jump once."""
     with JobSession(tmp_path, seed=5, mode="realtime", real_time_factor=2.0, plant_overrides=BEAD,
                     record=False) as session:
-        session.start_job(30.0, RESET_TIME_S)
+        session.start_job(20.0, RESET_TIME_S)
         session.spin_until(lambda: 1 in session.record.trajectories, 300.0, "pass 1's force trajectory")
         session.graph.kill("plant")
         session.graph.start("plant")
