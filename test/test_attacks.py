@@ -56,7 +56,8 @@ class Attack:
 
     def __init__(self, tmp_path, start: bool = True, **session_options):
         session_options.setdefault("record", False)  # nothing here reads the recording: its CPU spared
-        self.session = JobSession(tmp_path, seed=SEED, plant_overrides=BEAD, **session_options)
+        plant_overrides = {**BEAD, **session_options.pop("plant_overrides", {})}
+        self.session = JobSession(tmp_path, seed=SEED, plant_overrides=plant_overrides, **session_options)
         self.record = self.session.record
         self.rogue = rclpy.create_node("rogue", context=self.session.context)
         self.session.executor.add_node(self.rogue)
@@ -378,14 +379,15 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     """After a cancel the pass already commanded was ground to the end (issue 37): the
     sequence planner stops the pass in flight, the force controller retracts within its ramp
     (0.5 s), and the plant reports the pass as not run as planned."""
-    a = attack()
+    a = attack(plant_overrides={"lockstep_timeout_s": 8.0})  # the plant waits out the stopped controller
     stops = []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
     start_job(a)
     in_pass(a, 1)
     # the cancel is wall time and the lock-step clock runs on meanwhile: beside two CPU
     # burners the pass once ended first (COMPLETED). Its clock stands while the force
-    # controller does not answer, until the stop is out
+    # controller does not answer, until the stop is out (a second of silence made the plant
+    # run free on the wall clock with the held command, and the pass end COMPLETED once more)
     controller = a.session.graph.processes["force_controller"]
     controller.send_signal(signal.SIGSTOP)
     try:
@@ -397,6 +399,7 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     outcome = run_to_end(a)
     assert outcome["reason"] == "cancelled"
     result = a.spin_until(lambda: a.record.results.get(1), "pass 1's result")
+    assert a.counter("/plant", "lockstep_timeouts") == 0, "the stop took longer than the plant waits"
     assert result["status"] in ("faulted", "aborted"), result
     force = np.asarray(a.record.force)
     after = force[(force[:, 0] > cancelled_at + 1.0) & (force[:, 0] < result["stamp_s"])]
