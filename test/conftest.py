@@ -85,6 +85,7 @@ def pytest_collection_modifyitems(config, items):
     first as one run, they all went to one worker, which ran them one after another (372 s)
     while the other two ran the short tests and then idled; without xdist: slow first."""
     workers = getattr(config, "workerinput", {}).get("workercount", 1)
+
     def is_slow(item) -> bool:  # of those modules, the tests that start processes (the unit tests are quick)
         return item.path.name in SLOW_FIRST and "ros_env" in getattr(item, "fixturenames", ())
 
