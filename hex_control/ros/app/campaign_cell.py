@@ -24,8 +24,8 @@ def campaign_settings(options: dict, machine_file: str, record: bool = True, tim
                       plots: bool = True) -> dict:
     """What every cell of a campaign shares: the run ``options`` (RUN_DEFAULTS' keys;
     lock-step only: a campaign's outcomes must depend on the seeds alone), the machine
-    file, whether to record and to draw each report's PNGs, the calibrated t_R with the input shaper (printed, as the
-    demo prints it) and a job's timeout (s)."""
+    file, whether to record and whether to draw each report's PNGs, the calibrated t_R
+    with the input shaper (printed, as the demo prints it) and a job's timeout (s)."""
     from hex_control.ros.app.demo import calibrated_reset_time
 
     if options.get("realtime"):

@@ -43,8 +43,9 @@ def run_seeded_job(directory: Path, options: dict, *, reset_time_s: float | None
     """One job of ``hexctl demo`` or of a campaign's cell, on a fresh graph: the run's
     ``options`` (:func:`run_options`, its seed included) stored in ``directory`` (unless
     resumed), the job run, its report written (``job.json`` with ``wall_s`` and
-    ``simulated_pass_time_s``; the PNGs unless not ``plots``). The summary and the start policy's charges. A graph that
-    fails raises GraphFailure (``resume_dir`` set where an unfinished job is left)."""
+    ``simulated_pass_time_s``; the PNGs unless not ``plots``). The summary and the start
+    policy's charges. A graph that fails raises GraphFailure (``resume_dir`` set where an
+    unfinished job is left)."""
     directory, seed = Path(directory), options["seed"]
     if not resume:
         store_run_options(directory, options)
