@@ -139,7 +139,10 @@ def test_a_job_cut_off_is_taken_up_by_a_resumed_run_on_the_part_as_it_was(ros_en
 
     with JobSession(tmp_path, seed=6, plant_overrides=STEADY, record=False) as first:
         first.start_job(22.0, RESET_TIME_S, job_id="cut-off")
-        first.spin_until(lambda: 0 in first.record.results and 1 in first.record.contours, 300.0, "the first pass")
+        # cut off once the planner has logged the first pass: the observer hearing its result
+        # is not enough (a fresh-clone CI stopped the graph before the planner had logged it)
+        first.spin_until(lambda: 0 in first.record.results and 1 in first.record.contours
+                         and _job_log_results(tmp_path / "jobs") >= 1, 300.0, "the first pass, logged")
     [log] = unfinished_logs(tmp_path / "jobs")
     done = sum(r["type"] == "result" for r in read_log(log))
     with JobSession(tmp_path, seed=6, plant_overrides=STEADY, record=False, resume=True) as resumed:
