@@ -76,21 +76,30 @@ SLOW_FIRST = ("test_end_to_end.py", "test_ros_cli.py", "test_attacks.py", "test_
               "test_determinism.py", "test_demo.py", "test_colcon_build.py", "test_hostile_inputs.py")
 #: of those, the modules whose fixtures serve the whole module: dealt to one worker whole
 WHOLE_MODULES = ("test_ros_cli.py",)
+#: their slow tests that start processes without the ``ros_env`` fixture
+SLOW_WITHOUT_ROS_ENV = ("test_loop_benchmark_runs_the_force_loop_over_ros",
+                        "test_a_campaign_on_a_local_ray_gives_the_same_table")
+
+
+def _is_slow(item) -> bool:
+    """A test of SLOW_FIRST that starts processes (their unit tests are quick)."""
+    return item.path.name in SLOW_FIRST and ("ros_env" in getattr(item, "fixturenames", ())
+                                              or item.name in SLOW_WITHOUT_ROS_ENV)
 
 
 def pytest_collection_modifyitems(config, items):
-    """Deal the slow tests out to the xdist workers, each worker's share at the head of the
-    block the worksteal scheduler first sends it (it splits the collection into equal
-    contiguous blocks, and an idle worker steals from the tail of another's queue). Collected
-    first as one run, they all went to one worker, which ran them one after another (372 s)
-    while the other two ran the short tests and then idled; without xdist: slow first."""
+    """The slow tests first. Under ``--dist worksteal`` (``make test``) dealt out to the
+    workers, each worker's share at the head of the block the scheduler first sends it (it
+    splits the collection into equal contiguous blocks, and an idle worker steals from the
+    tail of another's queue): collected first as one run, they all went to one worker,
+    which ran them one after another (372 s) while the other two ran the short tests and
+    then idled. The shares are even in number of tests, not in cost."""
+    slow = sorted(filter(_is_slow, items), key=lambda item: SLOW_FIRST.index(item.path.name))
+    short = [item for item in items if not _is_slow(item)]
     workers = getattr(config, "workerinput", {}).get("workercount", 1)
-
-    def is_slow(item) -> bool:  # of those modules, the tests that start processes (the unit tests are quick)
-        return item.path.name in SLOW_FIRST and "ros_env" in getattr(item, "fixturenames", ())
-
-    slow = sorted(filter(is_slow, items), key=lambda item: SLOW_FIRST.index(item.path.name))
-    short = [item for item in items if not is_slow(item)]
+    if workers == 1 or config.getoption("dist", "no") != "worksteal":
+        items[:] = slow + short
+        return
     units: list[list] = []  # each dealt to one worker: a test, or a whole module
     for item in slow:
         if units and item.path.name in WHOLE_MODULES and units[-1][0].path == item.path:

@@ -26,7 +26,7 @@ from rcl_interfaces.msg import Parameter, ParameterType, ParameterValue
 from rcl_interfaces.srv import SetParameters
 from rclpy.action import ActionClient
 from std_msgs.msg import Float64
-from test_end_to_end import assert_consistent
+from test_end_to_end import BEAD, RESET_TIME_S, assert_consistent, mean_height
 
 from hex_control.grinding.part_quality import TOLERANCE_MM, part_quality
 from hex_control.ros.app.grind_job import JobSession
@@ -42,13 +42,8 @@ from hex_control_msgs.msg import (
 )
 from hex_control_msgs.srv import ForwardKinematics, InverseKinematics
 
-BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
-SEED, DEADLINE_S, RESET_TIME_S = 5, 30.0, 4.7
+SEED, DEADLINE_S = 5, 30.0
 JOB_TIMEOUT_S = 400.0
-
-
-def mean_height(contour) -> float:
-    return float(np.trapezoid(contour.z_mm - contour.parent_mm, contour.x_mm) / contour.length_mm)
 
 
 class Attack:
@@ -205,7 +200,7 @@ def test_the_attacks_refused_at_the_door_leave_the_job_its_word(attack):
     assert_the_job_kept_its_word(a.record, outcome)
     assert outcome["reason"] in ("done", "quit") and outcome["passes"] >= 2
     assert all(r["status"] == "completed" for r in a.record.results.values()), a.record.results
-    assert a.counter("/plant", "foreign_force_command") >= 5  # the jog's
+    assert a.status("/plant") is not None and a.counter("/plant", "foreign_force_command") >= 5  # the jog's
     assert "clock jumped" not in a.session.graph.log_tail("force_controller", 400)
 
 
@@ -399,6 +394,7 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     outcome = run_to_end(a)
     assert outcome["reason"] == "cancelled"
     result = a.spin_until(lambda: a.record.results.get(1), "pass 1's result")
+    assert a.status("/plant") is not None  # its counters heard: none of lockstep_timeouts is none counted
     assert a.counter("/plant", "lockstep_timeouts") == 0, "the stop took longer than the plant waits"
     assert result["status"] in ("faulted", "aborted"), result
     force = np.asarray(a.record.force)

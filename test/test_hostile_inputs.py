@@ -45,9 +45,9 @@ STRINGS = ("", "job-a", "x" * 200, "a/b", "ünï")
 
 class HostileMessages:
     """Messages with every field drawn from a seeded generator: hostile values, any bit
-    pattern (NaN payloads, subnormals, infinities), absurd sizes and stamps in any order; and
-    a quarter tame (zeros, plausible magnitudes, stamps 5 ms apart), which pass the first
-    checks and reach the arithmetic behind them."""
+    pattern (NaN payloads, subnormals, infinities), absurd sizes and stamps in any order;
+    and a quarter tame (zeros, plausible magnitudes, stamps 5 ms apart in the first second),
+    which pass the first checks and reach the arithmetic behind them."""
 
     def __init__(self, seed: int):
         self.rng = random.Random(seed)
@@ -61,7 +61,7 @@ class HostileMessages:
         """A value of the ROS field type ``kind`` (as ``get_fields_and_field_types`` names it)."""
         rng = self.rng
         if kind in ("double", "float"):
-            return self.float(64 if kind == "double" else 32, tame)
+            return self.number(64 if kind == "double" else 32, tame)
         if kind in INTEGERS:
             low, high = INTEGERS[kind]
             if tame:
@@ -78,13 +78,14 @@ class HostileMessages:
             size = rng.randint(0, 3) if tame else rng.choice((0, 1, 2, rng.randint(3, 30)))
             return [self.field(inner, tame) for _ in range(size)]
         if kind == "builtin_interfaces/Time":  # stamps in any order: before the epoch, in the past, far ahead
-            if tame:
-                self.tame_stamp_ns += 5_000_000
-                return Time(sec=self.tame_stamp_ns // 1_000_000_000, nanosec=self.tame_stamp_ns % 1_000_000_000)
+            if tame:  # within the first second: the idle graph's clock stands near zero
+                self.tame_stamp_ns = (self.tame_stamp_ns + 5_000_000) % 1_000_000_000
+                return Time(sec=0, nanosec=self.tame_stamp_ns)
             return Time(sec=rng.randint(-2**31, 2**31 - 1), nanosec=rng.randint(0, 999_999_999))
         return self.message(message_class(kind), tame)
 
-    def float(self, width: int, tame: bool) -> float:
+    def number(self, width: int, tame: bool) -> float:
+        """A float of ``width`` bits (64: double, 32: float)."""
         draw = self.rng.random()
         if tame:
             return 0.0 if draw < 0.5 else self.rng.uniform(-10.0, 10.0)
@@ -92,7 +93,9 @@ class HostileMessages:
             return self.rng.choice(HOSTILE_FLOATS if width == 64 else HOSTILE_FLOAT32)
         if draw < 2 / 3:
             pattern = self.rng.getrandbits(width).to_bytes(width // 8, "little")
-            return struct.unpack("<d" if width == 64 else "<f", pattern)[0]
+            value = struct.unpack("<d" if width == 64 else "<f", pattern)[0]
+            # rosidl's float32 setter refuses finite values beyond 3.402823466e38, FLT_MAX among them
+            return math.copysign(3.4e38, value) if width == 32 and 3.4e38 < abs(value) < math.inf else value
         return self.rng.choice((-1.0, 1.0)) * 10.0 ** self.rng.uniform(-4.0, 4.0)
 
 

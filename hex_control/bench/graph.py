@@ -19,7 +19,7 @@ import os
 import statistics
 import tempfile
 import time
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 from unittest import mock
 
@@ -70,6 +70,20 @@ def standing_wall_s(arrivals: list[tuple[float, float]], start: tuple[float, flo
     return sum(max(0.0, wall - sim * pace) for wall, sim in standing)
 
 
+@contextmanager
+def _logs_said_on_failure(session):
+    """A job that fails or does not start prints its nodes' last log lines: the logs go with
+    the benchmark's temporary folder."""
+    from hex_control.ros.app.grind_job import GraphFailure
+
+    try:
+        yield
+    except (GraphFailure, TimeoutError):
+        for name in ("plant", "force_controller", "kinematics", "pass_planner"):
+            print(f"--- {name}:\n{session.graph.log_tail(name, 40)}")
+        raise
+
+
 def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s: float, seed: int,
                   *, reset_time_s: float, record: bool = True, excluded=None) -> dict:
     """One job on a fresh graph whose nodes spin on ``executor``; figures of the run."""
@@ -80,19 +94,14 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
     with mock.patch.dict(os.environ, HEX_EXECUTOR=executor), leaving_out:
         session = grind_job.JobSession(output, seed, plant_overrides={"bead_length_mm": bead_length_mm},
                                        record=record)
-    with session:
+    with session, _logs_said_on_failure(session):
         session.start_job(deadline_s, reset_time_s)
         processes = dict(session.graph.processes)
         arrivals = session.observer.telemetry_arrivals = []
         cpu_start = {name: cpu_s(p.pid) for name, p in processes.items()}
         own_start = own_cpu_s()
         sim_start, wall_start = session.record.force[-1][0], time.monotonic()
-        try:
-            outcome = session.wait_for_outcome(600.0)
-        except grind_job.GraphFailure:  # the logs go with the benchmark's temporary folder: say them now
-            for name in ("plant", "force_controller", "kinematics", "pass_planner"):
-                print(f"--- {name}:\n{session.graph.log_tail(name, 40)}")
-            raise
+        outcome = session.wait_for_outcome(600.0)
         wall = time.monotonic() - wall_start
         # to the last pass's scan: a lock-step plant runs on a little after it (plan_ahead_s)
         results = session.record.results.values()

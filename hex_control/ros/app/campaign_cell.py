@@ -4,9 +4,9 @@
 cell (:func:`hex_control.campaign.domains.lease_domain`), runs one seeded job on a fresh
 graph with :func:`~hex_control.ros.app.demo.run_seeded_job`, and writes the job's report
 directory as ``hexctl demo --jobs N`` does (``run.json``, ``job.json`` with ``wall_s`` and
-``simulated_pass_time_s``, the PNGs, logs and recording). :func:`campaign_settings`
-prepares, once in the driver, what every cell shares: the run options and the calibrated
-reset time t_R (a pure computation, the same in every cell).
+``simulated_pass_time_s``, the PNGs unless ``--no-plots``, logs and recording).
+:func:`campaign_settings` prepares, once in the driver, what every cell shares: the run
+options and the calibrated reset time t_R (a pure computation, the same in every cell).
 """
 
 from __future__ import annotations
