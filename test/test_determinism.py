@@ -15,12 +15,10 @@ import subprocess
 import sys
 
 import numpy as np
-from test_end_to_end import assert_contact_when_planned
+from test_end_to_end import BEAD, RESET_TIME_S, assert_contact_when_planned
 
 from hex_control.ros.app.grind_job import JobSession
 
-BEAD = {"bead_length_mm": 60.0, "bead_height_mm": 0.8}
-RESET_TIME_S = 4.7  # the shipped machine's ZVD-shaped t_R (test_grinding_cell)
 BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end: pass\n"
 
 
