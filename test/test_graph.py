@@ -34,7 +34,8 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, t
     nodes are forked from one server that imported them (node_forks.py). A forked node logs
     as its own process, its exit code comes back (a SIGKILL's -9, a Ctrl-C's 0), a restart
     forks it again, as a DDS participant id of its own (not its dead predecessor's), and one
-    whose server died is still followed: running until it is gone."""
+    whose server died is still followed: running until it is gone. The process's next graph
+    is forked from the same server, unless it died."""
     import os
     import signal
 
@@ -67,14 +68,16 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, t
         assert again.wait(timeout=10.0) == UNKNOWN_EXIT
     finally:
         graph.stop()
-    assert graph.forks is None  # stopped with its graph
+    assert graph.forks is None  # let go with its graph
     graph.start()
     try:
+        second = graph.forks.server.pid
         wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="a second server's node")
     finally:
         codes = graph.stop()
     assert codes == {"kinematics": 0}
     graph.start()  # a Ctrl-C the moment a node is forked stops it (it was lost, and SIGKILL came 10 s later)
+    assert graph.forks.server.pid == second and graph.forks.server.poll() is None
     assert graph.stop()["kinematics"] in (0, -signal.SIGINT)
 
 

@@ -159,7 +159,7 @@ class NodeGraph:
         self.restarts = 0  # of nodes after a crash: the next one's participant id
         self._crashed: set[str] = set()  # killed: their participants left without a word
         # nodes forked from one process that imported them (node_forks.py): a graph start pays
-        # the imports once; HEX_NODE_FORKS=0 starts each from its command line instead
+        # no imports but the first in a process; HEX_NODE_FORKS=0 starts each from its command line
         self.forks_enabled = self.env.get("HEX_NODE_FORKS", "1") != "0"
         self.forks: NodeForks | None = None
 
@@ -174,7 +174,7 @@ class NodeGraph:
                 extra = {**extra, **self._restart_profile(log_path, {**self.env, **extra})}
             if self.forks_enabled and not prefix:  # forked from the server that holds the imports
                 if self.forks is None or self.forks.server_gone:
-                    self.forks = NodeForks(sorted({s.module_path for s in self.specs.values()}), self.env)
+                    self.forks = NodeForks.shared(sorted({s.module_path for s in self.specs.values()}), self.env)
                 self.processes[spec.name] = self.forks.start(spec.module_path, ["--ros-args", *spec.arguments],
                                                              {**self.env, **extra}, log_path)
             else:
@@ -217,8 +217,7 @@ class NodeGraph:
         codes, deadline = {}, time.monotonic() + timeout_s
         for n in names:
             codes[n] = stop_hung(self.processes.pop(n), max(deadline - time.monotonic(), 0.0))
-        if not self.processes and self.forks is not None:  # a later start makes another
-            self.forks.close()
+        if not self.processes:  # the server stays for the process's next graph
             self.forks = None
         return codes
 

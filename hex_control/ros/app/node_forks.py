@@ -2,6 +2,14 @@
 modules once and forks each node from there, so a graph start pays its imports once, not
 once per node (a lock-step graph was ready on 3.8 CPU s, 2.2 forked).
 
+It imports more than the modules' own imports: what a node module lists in ``PRELOAD``
+(the modules its node imports while starting, e.g. scipy.linalg for the plant's servo) and
+the C type support of every interface type imported (a dlopen per package, else in every
+node). One server serves every graph of a process with the same modules and environment
+(:meth:`NodeForks.shared`): a test run or a campaign of many jobs imports once. (The nodes of
+a lock-step graph were then ready on 1.3-1.4 CPU s, not 2.0-2.4, and a process's next graph
+paid no server's 0.45-0.6 s.)
+
 The server runs no thread of its own and only imports: nothing of rclpy is initialised
 before a fork, so every node makes its own context and DDS participant, as a node started
 from its command line does. (Loading rclpy starts lttng-ust's two listener threads; the
@@ -77,6 +85,16 @@ def _run_fork(request: dict, server_fds: tuple[int, ...]) -> None:
             os._exit(code)
 
 
+def _import_type_supports() -> None:
+    """Load the C type support of every message, service and action type imported (what a
+    node's first publisher or client of the type would load)."""
+    for name, module in list(sys.modules.items()):
+        if name.rpartition(".")[2] in ("msg", "srv", "action"):
+            for value in list(vars(module).values()):
+                if isinstance(value, type) and hasattr(value, "__import_type_support__"):
+                    value.__import_type_support__()
+
+
 def serve(modules: list[str]) -> None:
     """The server's loop (``python -m hex_control.ros.app.node_forks MODULE...``)."""
     import importlib
@@ -84,7 +102,9 @@ def serve(modules: list[str]) -> None:
     protocol = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)  # whatever prints (an import, too) goes to stderr, not into the protocol
     for name in (*SHARED_IMPORTS, *modules):
-        importlib.import_module(name)
+        for preload in getattr(importlib.import_module(name), "PRELOAD", ()):
+            importlib.import_module(preload)
+    _import_type_supports()
     wake_read, wake_write = os.pipe()
     os.set_blocking(wake_write, False)
     signal.set_wakeup_fd(wake_write)
@@ -164,9 +184,28 @@ class ForkedNode:
         self.send_signal(signal.SIGKILL)
 
 
+#: environment variables a node reads only once it runs: a server is shared across their values
+READ_AFTER_FORK = ("ROS_DOMAIN_ID",)
+
+
 class NodeForks:
     """The client of one fork server, started with ``env`` (the nodes' common environment)
     and the node ``modules`` to import."""
+
+    _shared: dict[tuple, NodeForks] = {}
+    _sharing = threading.Lock()
+
+    @classmethod
+    def shared(cls, modules: list[str], env: dict) -> NodeForks:
+        """This process's running server for these modules and this environment (but for
+        READ_AFTER_FORK: what the server's imports read, library paths or OpenBLAS's
+        threads, must be the graph's), or a new one. It ends with the process."""
+        key = (tuple(sorted(modules)), tuple(sorted((k, v) for k, v in env.items() if k not in READ_AFTER_FORK)))
+        with cls._sharing:
+            forks = cls._shared.get(key)
+            if forks is None or forks.server_gone or forks.server.poll() is not None:
+                forks = cls._shared[key] = cls(modules, env)
+            return forks
 
     def __init__(self, modules: list[str], env: dict):
         self.server = subprocess.Popen([sys.executable, "-P", "-m", __name__, *modules], env=env,

@@ -64,6 +64,10 @@ from hex_control.ros.nodes.plant_setup import PARAMETERS, build_core
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult
 
+#: imported while the plant starts (its servo's discretization, the process variation's draws):
+#: a fork server imports them ahead (hex_control/ros/app/node_forks.py)
+PRELOAD = ("scipy.linalg", "numpy.random")
+
 
 class PlantNode(Node):
     READY_PARAMETERS = ("mode", "machine_file", "seed", "grinding")  # in its start-up line

@@ -37,6 +37,10 @@ from hex_control.ros.nodes.sequence_planner_messages import (
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
+#: imported while the planner starts (import_numerics, the seeded draws): a fork server imports
+#: them ahead (hex_control/ros/app/node_forks.py)
+PRELOAD = ("scipy.fft", "scipy.special", "numpy.random")
+
 REASONS = {"done": GrindBead.Result.DONE, "quit": GrindBead.Result.QUIT, "cancelled": GrindBead.Result.CANCELLED,
            "aborted": GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
 D = SequencerSettings(Path())  # the defaults: one source
