@@ -212,9 +212,11 @@ def live_predictor(ros_env, tmp_path_factory):
         ["hex-load-predictor", "--ros-args", "-r", "__ns:=/live", "-p", "input_topic:=/live/load",
          "-p", "quantity:=normal_force_n", *sum((["-p", a] for a in model_args), [])],
         ros_env, logs / "predictor.log")
+    # a history of 5 s: a reader stalled on the loaded machine still gets every sample (with
+    # the default 10, 50 ms at 200 Hz, `topic hz` once lost 16 % of them)
     source = NodeProcess(
         ["hex-synthetic-load", "--ros-args", "-p", "topic:=/live/load", "-p", "rate_hz:=200.0",
-         "-p", "seed:=42", *sum((["-p", a] for a in model_args), [])],
+         "-p", "seed:=42", "-p", "qos_depth:=1000", *sum((["-p", a] for a in model_args), [])],
         ros_env, logs / "source.log")
     yield predictor, source
     for process in (source, predictor):
@@ -280,7 +282,8 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
     # hz against the rate the source kept meanwhile (its DDS publish times and sequence
     # numbers): on a loaded machine its 200 Hz timer falls behind, and hz must report what was
     # published. Counted by sequence number: this reader, loaded too, may lose some (it once
-    # counted 160 Hz of the 200 that hz and the source agreed on)
+    # counted 160 Hz of the 200 that hz and the source agreed on; that was before the source's
+    # deep history)
     published: list[tuple[float, int]] = []
     reader = ros.node("publish_times")
     publish_times = reader.create_subscription(
