@@ -52,7 +52,7 @@ $(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES)
 $(VENV)/.stamp-package: $(VENV)/.stamp-tf2-msgs $(VENV)/.stamp-msgs setup.py setup.cfg \
                        hex_control/grinding/_contact_c.c
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
-	$(PY) -m compileall -q hex_control > /dev/null
+	$(PY) -m compileall -q hex_control
 	cd $(VENV)/bin && for script in ../lib/hex_control/hexctl ../lib/hex_control/hex-*; do \
 	  ln -sf $$script .; done
 	touch $@

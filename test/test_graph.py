@@ -71,14 +71,26 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, t
     assert graph.forks is None  # let go with its graph
     graph.start()
     try:
-        second = graph.forks.server.pid
+        second = graph.forks.server
         wait_until(lambda: "ready: /kinematics" in graph.log_tail("kinematics"), 60.0, what="a second server's node")
     finally:
         codes = graph.stop()
     assert codes == {"kinematics": 0}
     graph.start()  # a Ctrl-C the moment a node is forked stops it (it was lost, and SIGKILL came 10 s later)
-    assert graph.forks.server.pid == second and graph.forks.server.poll() is None
+    assert graph.forks.server is second and second.poll() is None
     assert graph.stop()["kinematics"] in (0, -signal.SIGINT)
+    # another graph in another domain, in another test (pytest names it in the environment):
+    # the same server; one whose imports could differ (OpenBLAS's threads) gets its own, and
+    # the server no graph uses any longer ends
+    for env, shared in (({**ros_env, "ROS_DOMAIN_ID": "101", "PYTEST_CURRENT_TEST": "another"}, True),
+                        ({**ros_env, "OPENBLAS_NUM_THREADS": "2"}, False)):
+        other = NodeGraph(kinematics, tmp_path / "other_logs", env=env)
+        other.start()
+        try:
+            assert (other.forks.server is second) is shared
+        finally:
+            other.stop()
+    assert second.poll() is not None
 
 
 def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):

@@ -40,15 +40,17 @@ WAIT, GRIND, QUIT = 0, 1, 2
 ACTION_NAMES = {WAIT: "wait", GRIND: "grind", QUIT: "quit"}
 
 
+#: the modules a policy solve evaluates: scipy.fft, and scipy.special for the cut PDFs
+NUMERICS = ("scipy.fft", "scipy.special")
+
+
 def import_numerics() -> None:
-    """Import the modules a policy solve evaluates (scipy.fft, and scipy.special for the cut
-    PDFs: about 0.15 s of CPU). A planner does it off its executor once it has started, so
-    that the first goal's solve does not, with the plant's clock standing meanwhile."""
-    import scipy.fft  # noqa: F401
+    """Import NUMERICS (about 0.15 s of CPU). A planner does it off its executor once it has
+    started, so that the first goal's solve does not, with the plant's clock standing meanwhile."""
+    import importlib
 
-    from hex_control.grinding.stochastic import _special
-
-    _special()
+    for name in NUMERICS:
+        importlib.import_module(name)
 
 
 @dataclass(frozen=True)

@@ -173,7 +173,9 @@ class NodeGraph:
                 self._crashed.discard(spec.name)
                 extra = {**extra, **self._restart_profile(log_path, {**self.env, **extra})}
             if self.forks_enabled and not prefix:  # forked from the server that holds the imports
-                if self.forks is None or self.forks.server_gone:
+                if self.forks is None or not self.forks.running:
+                    if self.forks is not None:
+                        self.forks.release()
                     self.forks = NodeForks.shared(sorted({s.module_path for s in self.specs.values()}), self.env)
                 self.processes[spec.name] = self.forks.start(spec.module_path, ["--ros-args", *spec.arguments],
                                                              {**self.env, **extra}, log_path)
@@ -217,7 +219,8 @@ class NodeGraph:
         codes, deadline = {}, time.monotonic() + timeout_s
         for n in names:
             codes[n] = stop_hung(self.processes.pop(n), max(deadline - time.monotonic(), 0.0))
-        if not self.processes:  # the server stays for the process's next graph
+        if not self.processes and self.forks is not None:  # the server stays for the process's next graph
+            self.forks.release()
             self.forks = None
         return codes
 

@@ -4,11 +4,12 @@ once per node (a lock-step graph was ready on 3.8 CPU s, 2.2 forked).
 
 It imports more than the modules' own imports: what a node module lists in ``PRELOAD``
 (the modules its node imports while starting, e.g. scipy.linalg for the plant's servo) and
-the C type support of every interface type imported (a dlopen per package, else in every
-node). One server serves every graph of a process with the same modules and environment
-(:meth:`NodeForks.shared`): a test run or a campaign of many jobs imports once. (The nodes of
-a lock-step graph were then ready on 1.3-1.4 CPU s, not 2.0-2.4, and a process's next graph
-paid no server's 0.45-0.6 s.)
+the type support modules of every interface type imported (else loaded in every node; the
+middleware's own support of a type still loads in the node that uses it). One server serves
+the graphs of a process that share the modules and the environment but for what only a
+running node reads (:meth:`NodeForks.shared`): a test worker's graphs, `hexctl demo --jobs N`.
+(The nodes of a lock-step graph were then ready on 1.3-1.4 CPU s, not 2.0-2.4, and a
+process's next graph paid no server's 0.45-0.6 s.)
 
 The server runs no thread of its own and only imports: nothing of rclpy is initialised
 before a fork, so every node makes its own context and DDS participant, as a node started
@@ -86,13 +87,17 @@ def _run_fork(request: dict, server_fds: tuple[int, ...]) -> None:
 
 
 def _import_type_supports() -> None:
-    """Load the C type support of every message, service and action type imported (what a
-    node's first publisher or client of the type would load)."""
+    """Import the type support module of every message, service and action type imported
+    (what a node's first publisher or client of the type would import). Only a head start: a
+    type whose support fails to load is left to the node that uses it to report."""
     for name, module in list(sys.modules.items()):
         if name.rpartition(".")[2] in ("msg", "srv", "action"):
             for value in list(vars(module).values()):
                 if isinstance(value, type) and hasattr(value, "__import_type_support__"):
-                    value.__import_type_support__()
+                    try:
+                        value.__import_type_support__()
+                    except Exception:  # noqa: BLE001 -- a head start only (the docstring)
+                        continue
 
 
 def serve(modules: list[str]) -> None:
@@ -184,8 +189,10 @@ class ForkedNode:
         self.send_signal(signal.SIGKILL)
 
 
-#: environment variables a node reads only once it runs: a server is shared across their values
-READ_AFTER_FORK = ("ROS_DOMAIN_ID",)
+#: environment variables the server's imports do not read, by prefix: ROS, its middleware
+#: and its logging read theirs when a node initializes, after the fork; pytest's name the
+#: test (a key with them started a server for every test)
+READ_AFTER_FORK = ("ROS_", "RMW_", "FASTDDS_", "FASTRTPS_", "RCUTILS_", "PYTEST_")
 
 
 class NodeForks:
@@ -199,13 +206,29 @@ class NodeForks:
     def shared(cls, modules: list[str], env: dict) -> NodeForks:
         """This process's running server for these modules and this environment (but for
         READ_AFTER_FORK: what the server's imports read, library paths or OpenBLAS's
-        threads, must be the graph's), or a new one. It ends with the process."""
-        key = (tuple(sorted(modules)), tuple(sorted((k, v) for k, v in env.items() if k not in READ_AFTER_FORK)))
+        threads, must be the graph's), or a new one, which closes the servers no graph
+        uses. The caller releases it (:meth:`release`) when its graph has stopped; the last one
+        runs until the process ends."""
+        key = (tuple(sorted(modules)),
+               tuple(sorted((k, v) for k, v in env.items() if not k.startswith(READ_AFTER_FORK))))
         with cls._sharing:
             forks = cls._shared.get(key)
-            if forks is None or forks.server_gone or forks.server.poll() is not None:
+            if forks is None or not forks.running:
+                for other_key, other in list(cls._shared.items()):
+                    if other.users == 0 or not other.running:
+                        del cls._shared[other_key]
+                        other.close()
                 forks = cls._shared[key] = cls(modules, env)
+            forks.users += 1
             return forks
+
+    def release(self) -> None:
+        with NodeForks._sharing:
+            self.users -= 1
+
+    @property
+    def running(self) -> bool:
+        return not self.server_gone and self.server.poll() is None
 
     def __init__(self, modules: list[str], env: dict):
         self.server = subprocess.Popen([sys.executable, "-P", "-m", __name__, *modules], env=env,
@@ -213,6 +236,7 @@ class NodeForks:
                                        start_new_session=True)
         self.exit_codes: dict[int, int] = {}
         self.server_gone = False  # its stdout ended: exits are no longer reported
+        self.users = 0  # graphs forking from it (shared)
         self.changed = threading.Condition()
         self._started: list[int] = []
         self._starting = threading.Lock()  # one start at a time: the n-th pid answers the n-th request

@@ -19,7 +19,7 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.node import Node
 
 from hex_control.config import config_file
-from hex_control.grinding.sdp import import_numerics
+from hex_control.grinding.sdp import NUMERICS, import_numerics
 from hex_control.grinding.sequencer import Sequencer, SequencerSettings
 from hex_control.ros.infra.diagnostics import ERROR, WARN, Diagnostics
 from hex_control.ros.infra.interfaces import LATCHED, RESULTS
@@ -38,8 +38,9 @@ from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
 #: imported while the planner starts (import_numerics, the seeded draws): a fork server imports
-#: them ahead (hex_control/ros/app/node_forks.py)
-PRELOAD = ("scipy.fft", "scipy.special", "numpy.random")
+#: them ahead (hex_control/ros/app/node_forks.py; numpy's global RandomState is then the same
+#: in every fork: the nodes draw from their own seeded generators only)
+PRELOAD = (*NUMERICS, "numpy.random")
 
 REASONS = {"done": GrindBead.Result.DONE, "quit": GrindBead.Result.QUIT, "cancelled": GrindBead.Result.CANCELLED,
            "aborted": GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
