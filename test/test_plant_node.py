@@ -103,8 +103,11 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     """Sim time keeps pace with the wall clock: judged on the plant's own publish times (the
     DDS source timestamps), not on when this process gets to read the messages, which
     drifts with the load. A period's lag behind its schedule is the publish time less the
-    sim stamp; its least over each end of a 2 s window is the schedule's offset there, so a
-    plant that keeps pace shows the same offset at both ends, late timer ticks aside."""
+    sim stamp; its least over each end of a window of 2 s or more is the schedule's offset
+    there, so a plant that keeps pace shows the same offset at both ends, late timer ticks
+    aside. A plant starved of a core at the window's end (a fresh clone's CI, its colcon build
+    beside three workers: 0.61 over 2 s) has caught up once it runs again: the window grows by
+    a second at a time, up to 30 s; a slow plant's offset grows with it, and it fails."""
     spawn(["hex-plant", "--ros-args", "-p", "mode:=realtime", "-p", "strut_command_owner:=strut_source"])
     states = ros.collect(JointState, "/plant/strut_states", KEEP)
     published: list[tuple[float, float]] = []  # (sim stamp s, the plant's publish time s)
@@ -119,14 +122,24 @@ def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):
     wait_until(lambda: states, 10.0, what="strut states")
     commands.publish(JointState(name=names, position=[2.61] * 6))
     start = len(published)
-    wait_until(lambda: len(published) > start and published[-1][0] - published[start][0] >= 2.0, 30.0,
-               what="2 s of sim time")
+
+    def real_time_factor(span_s: float) -> float:
+        wait_until(lambda: len(published) > start and published[-1][0] - published[start][0] >= span_s, 60.0,
+                   what=f"{span_s:g} s of sim time")
+        window = np.array(published[start:])
+        sim_s, lag_s = window[:, 0], window[:, 1] - window[:, 0]
+        first, last = sim_s < sim_s[0] + 0.5, sim_s > sim_s[-1] - 0.5
+        drift_s = lag_s[last].min() - lag_s[first].min()
+        return (sim_s[-1] - sim_s[0]) / (sim_s[-1] - sim_s[0] + drift_s)
+
+    factors = []
+    for span_s in range(2, 31):
+        factors.append(real_time_factor(span_s))
+        if factors[-1] == pytest.approx(1.0, rel=0.05):
+            break
+    assert factors[-1] == pytest.approx(1.0, rel=0.05), factors  # real-time factor 1
     window = np.array(published[start:])
-    sim_s, lag_s = window[:, 0], window[:, 1] - window[:, 0]
-    first, last = sim_s < sim_s[0] + 0.5, sim_s > sim_s[-1] - 0.5
-    drift_s = lag_s[last].min() - lag_s[first].min()
-    span_s = sim_s[-1] - sim_s[0]
-    assert span_s / (span_s + drift_s) == pytest.approx(1.0, rel=0.05)  # real-time factor 1
+    sim_s = window[:, 0]
     # every 5 ms control period is published: none skipped, none repeated
     assert np.diff(sim_s) == pytest.approx(0.005, abs=1e-6)
     assert states[-1].position == pytest.approx([2.61] * 6, abs=1e-6)
