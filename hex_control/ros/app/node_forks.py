@@ -5,9 +5,11 @@ once per node (a lock-step graph was ready on 3.8 CPU s, 2.2 forked).
 It imports more than the modules' own imports: what a node module lists in ``PRELOAD``
 (the modules its node imports while starting, e.g. scipy.linalg for the plant's servo) and
 the type support modules of every interface type imported (else loaded in every node; the
-middleware's own support of a type still loads in the node that uses it). One server serves
-the graphs of a process that share the modules and the environment but for what only a
-running node reads (:meth:`NodeForks.shared`): a test worker's graphs, `hexctl demo --jobs N`.
+middleware's own support of a type still loads in the node that uses it). With numpy.random
+imported ahead, numpy's global RandomState is the same in every fork: the nodes draw from
+seeded generators of their own. One server serves the graphs of a process that share the
+modules and the environment but for what only a running node reads
+(:meth:`NodeForks.shared`): a test worker's graphs, `hexctl demo --jobs N`.
 (The nodes of a lock-step graph were then ready on 1.3-1.4 CPU s, not 2.0-2.4, and a
 process's next graph paid no server's 0.45-0.6 s.)
 

@@ -65,8 +65,7 @@ from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult
 
 #: imported while the plant starts (its servo's discretization, the process variation's draws):
-#: a fork server imports them ahead (hex_control/ros/app/node_forks.py; numpy's global
-#: RandomState is then the same in every fork: the nodes draw from their own seeded generators only)
+#: a fork server imports them ahead (hex_control/ros/app/node_forks.py)
 PRELOAD = ("scipy.linalg", "numpy.random")
 
 

@@ -38,8 +38,7 @@ from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
 #: imported while the planner starts (import_numerics, the seeded draws): a fork server imports
-#: them ahead (hex_control/ros/app/node_forks.py; numpy's global RandomState is then the same
-#: in every fork: the nodes draw from their own seeded generators only)
+#: them ahead (hex_control/ros/app/node_forks.py)
 PRELOAD = (*NUMERICS, "numpy.random")
 
 REASONS = {"done": GrindBead.Result.DONE, "quit": GrindBead.Result.QUIT, "cancelled": GrindBead.Result.CANCELLED,
