@@ -64,9 +64,7 @@ from hex_control.ros.nodes.plant_setup import PARAMETERS, build_core
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceAxisCommand, ForceTrajectory, PassResult
 
-#: imported while the plant starts (its servo's discretization, the process variation's draws):
-#: a fork server imports them ahead (hex_control/ros/app/node_forks.py)
-PRELOAD = ("scipy.linalg", "numpy.random")
+PRELOAD = ("scipy.linalg", "numpy.random")  # imported at start (servo discretization, draws): node_forks.py
 
 
 class PlantNode(Node):

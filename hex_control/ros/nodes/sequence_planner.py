@@ -37,9 +37,7 @@ from hex_control.ros.nodes.sequence_planner_messages import (
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour, ForceTrajectory, LoadPrediction, PassCommand, PassResult
 
-#: imported while the planner starts (import_numerics, the seeded draws): a fork server imports
-#: them ahead (hex_control/ros/app/node_forks.py)
-PRELOAD = (*NUMERICS, "numpy.random")
+PRELOAD = (*NUMERICS, "numpy.random")  # imported at start (import_numerics, the draws): node_forks.py
 
 REASONS = {"done": GrindBead.Result.DONE, "quit": GrindBead.Result.QUIT, "cancelled": GrindBead.Result.CANCELLED,
            "aborted": GrindBead.Result.ABORTED, "rejected": GrindBead.Result.REJECTED}
