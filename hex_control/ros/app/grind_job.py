@@ -48,6 +48,11 @@ STALL_S = 60.0
 #: wall seconds for a fresh graph's lock-step loop to close once its streams have matched
 #: (the plant's first state answered: at most one re-send, 1 s, after both sides matched)
 LOOP_START_S = 30.0
+#: the latched topics a pass is handed over on (depth 1): the observer (and its recorder) must
+#: know their publishers before the job starts, else a late discovery left it only the latest
+#: pass's (a two-cell test's observer once missed pass 0's trajectory, and its recording the
+#: pass planner's and kinematics' topics)
+HANDOVER_TOPICS = ("grinding/force_trajectory", "motion/tool_path_raw", "plant/strut_trajectory")
 
 
 class GraphFailure(RuntimeError):
@@ -162,6 +167,7 @@ class JobSession:
         """Spin until the graph can take a goal: the plant's first scan, the control streams
         matched, the sequence planner hearing the K1 predictor (a planner that has not found it
         yet decides the first pass without its prediction: the job would depend on discovery),
+        the publishers of the HANDOVER_TOPICS discovered,
         the action server answering, the force loop's first state answered. TimeoutError
         naming what it waited for."""
         record, observer = self.record, self.observer
@@ -169,6 +175,8 @@ class JobSession:
         self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
                         "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
         self.spin_until(lambda: observer.planner_hears_predictor, 60.0, "the sequence planner to hear the K1 predictor")
+        self.spin_until(lambda: all(observer.count_publishers(topic) for topic in HANDOVER_TOPICS), 60.0,
+                        f"the publishers of {', '.join(HANDOVER_TOPICS)} to be discovered")
         probe = ResponseProbe(observer.client)
         try:
             self.spin_until(probe, 60.0, "the sequence planner's action server to answer")
