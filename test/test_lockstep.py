@@ -182,19 +182,18 @@ def test_a_state_is_sent_again_until_the_first_answer_then_silence_runs_free():
     assert outputs.states == [0.0, 0.0] and "lockstep_timeouts" not in events.counts  # said again
     answer(core)
     assert core.gate.started and outputs.states[-1] == pytest.approx(0.005)
-    core.free_run()
-    assert len(outputs.states) == 3  # an answering controller: no free run
+    assert core.free_run() is False  # an answering controller: no free run (the node's timer stops)
+    assert len(outputs.states) == 3
     clock.now += TIMEOUT
-    core.lockstep_watchdog(TIMEOUT)
+    assert core.lockstep_watchdog(TIMEOUT) is True  # the node starts the free run's timer
     assert events.counts["lockstep_timeouts"] == 1 and "free_running" in events.faults
     assert outputs.states[-1] == pytest.approx(0.01)  # advanced with the held command
-    for _ in range(3):
-        core.free_run()
+    assert all(core.free_run() for _ in range(3))
     assert outputs.states[-1] == pytest.approx(0.025)
     core.on_force_command(-1.5, time_ns(1234.0))  # free running: any command is taken, answers the state
     assert not core.gate.free_running and "free_running" not in events.faults and core.command_mm == -1.5
     assert outputs.states[-1] == pytest.approx(0.03)  # and the lock-step resumes: no more free steps
-    core.free_run()
+    assert core.free_run() is False and core.lockstep_watchdog(TIMEOUT) is False
     assert outputs.states[-1] == pytest.approx(0.03)
 
 

@@ -97,6 +97,9 @@ def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on(ros, spawn):
     assert sorted({round(_stamp_s(w), 6) for w in wrenches}) == [0.0, 0.005, 0.01]
     wait_until(lambda: int(_plant_counter(diagnostics, "stale_force_commands") or 0) == 2, 5.0,
                what="the repeated answer counted")
+    # silent for lockstep_timeout_s: the plant runs free on the wall clock (its free run's timer
+    # is started only then), a period every 5 ms with the held command
+    wait_until(lambda: _stamp_s(wrenches[-1]) >= 0.1, 30.0, what="the free run")
 
 
 def test_realtime_mode_keeps_its_rate_and_the_struts_follow(ros, spawn):

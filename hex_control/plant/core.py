@@ -247,12 +247,17 @@ class PlantCore:
         self._lockstep_step()
 
     # -- timers ----------------------------------------------------------------------------
-    def lockstep_watchdog(self, timeout_s: float) -> None:
+    def lockstep_watchdog(self, timeout_s: float) -> bool:
         """Every fraction of ``timeout_s`` (wall time): re-send an unanswered first state;
         after the first answer, say the waiting measurement once more when a quarter of the
         timeout has passed (it or its answer was lost on the way: a flood on the topic
         overflows its queue; the controller answers a repeat with the same command), and run
-        free once the controller has been silent the whole timeout."""
+        free once the controller has been silent the whole timeout. True while running free:
+        :meth:`free_run` is then due every control period."""
+        self._watch(timeout_s)
+        return self.gate.free_running
+
+    def _watch(self, timeout_s: float) -> None:
         gate, now = self.gate, self.clock()
         if gate.started and not gate.resent and gate.timed_out(now, timeout_s / 4):
             gate.resent = True
@@ -271,11 +276,12 @@ class PlantCore:
         if self._covered():
             self._advance()
 
-    def free_run(self) -> None:
-        """Every control period of wall time (over real_time_factor): a lock-step whose
-        controller fell silent runs on."""
+    def free_run(self) -> bool:
+        """Every control period of wall time (over real_time_factor) while running free: a
+        lock-step whose controller fell silent runs on. False once it answers again."""
         if self.gate.free_running and self._covered():
             self._advance()
+        return self.gate.free_running
 
     def realtime_tick(self) -> None:
         for _ in range(self.pacer.due(self.clock())):

@@ -36,6 +36,7 @@ from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
 FAULT_HOLD_S = 10.0  # a refusal or a part-safety change is a WARN this long (wall s)
+POLL_S = 0.1  # wall s: timeouts and resends; a finished plan or reach answer wakes the node at once
 
 PARAMETERS = {
     "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),
@@ -76,7 +77,7 @@ class PassPlannerNode(Node):
                 (ContourMsg, "grinding/contour", self._on_contour, "contour", "contour_owner")):
             info_subscription(self, msg_type, topic, callback, ifc.LATCHED, diagnostics=self.diagnostics, name=name,
                               owner_node=self.get_parameter(owner).value)
-        wall_timer(self, 0.02, self._poll)
+        wall_timer(self, POLL_S, self._poll)
 
     def _on_contour(self, msg: ContourMsg) -> None:
         try:

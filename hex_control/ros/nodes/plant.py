@@ -106,12 +106,13 @@ class PlantNode(Node):
                                                                  self.workpiece.passes))
             if self.workpiece.last_result is not None:  # the same message again, in case nobody had taken it in
                 self.result_publisher.publish(fill_message(PassResult(), self.workpiece.last_result))
+        tick_s = period_s / p("real_time_factor")  # wall s
         if p("mode") == "realtime":
-            self.create_timer(period_s / p("real_time_factor"), self.core.realtime_tick)
-        else:
-            self.create_timer(p("lockstep_timeout_s") / 4,
-                              lambda: self.core.lockstep_watchdog(self.p("lockstep_timeout_s")))
-            self.create_timer(period_s / p("real_time_factor"), self.core.free_run)
+            self.create_timer(tick_s, self.core.realtime_tick)
+        else:  # the free run's timer runs only while the controller is silent (else 200 idle wakeups/s)
+            (free_run := self.create_timer(tick_s, lambda: self.core.free_run() or free_run.cancel())).cancel()
+            self.create_timer(p("lockstep_timeout_s") / 4, lambda: self.core.lockstep_watchdog(
+                self.p("lockstep_timeout_s")) and free_run.is_canceled() and free_run.reset())
         wall_timer(self, 1.0, self._report)
         self.core.publish_state()
 

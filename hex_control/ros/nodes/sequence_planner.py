@@ -113,7 +113,7 @@ class SequencePlannerNode(Node):
                                        self.core.accept(goal_request(handle.request), handle, now())),
                                    cancel_callback=self._on_cancel)
         wall_timer(self, 1.0, lambda: self._do(self.core.tick(now())))
-        wall_timer(self, 0.02, self._poll_solve)
+        wall_timer(self, 0.1, self._poll_solve)  # a backstop: a finished solve wakes the node at once
         self._do(self.core.resume(now()))
         in_background(import_numerics)  # before a goal comes, not in its first solve
 
