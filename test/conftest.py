@@ -77,6 +77,8 @@ SLOW_FIRST = ("test_colcon_build.py", "test_end_to_end.py", "test_ros_cli.py", "
               "test_campaign.py", "test_determinism.py", "test_demo.py", "test_hostile_inputs.py")
 #: of those, the modules whose fixtures serve the whole module: dealt to one worker whole
 WHOLE_MODULES = ("test_ros_cli.py",)
+#: how many workers take the slow tests (the rest start with the quick ones and steal)
+SLOW_LANES = 2
 #: their slow tests that start processes without the ``ros_env`` fixture
 SLOW_WITHOUT_ROS_ENV = ("test_loop_benchmark_runs_the_force_loop_over_ros",
                         "test_a_campaign_on_a_local_ray_gives_the_same_table")
@@ -88,17 +90,29 @@ def _is_slow(item) -> bool:
                                               or item.name in SLOW_WITHOUT_ROS_ENV)
 
 
+def _dist_mode(config) -> str:
+    """``--dist`` as the run was started with: xdist sets it to "no" in its workers."""
+    argv = getattr(config, "workerinput", {}).get("mainargv", [])
+    for flag, value in zip(argv, argv[1:]):
+        if flag == "--dist":
+            return value
+    given = [arg.split("=", 1)[1] for arg in argv if arg.startswith("--dist=")]
+    return given[0] if given else config.getoption("dist", "no")
+
+
 def pytest_collection_modifyitems(config, items):
-    """The slow tests first. Under ``--dist worksteal`` (``make test``) dealt out to the
-    workers, each worker's share at the head of the block the scheduler first sends it (it
-    splits the collection into equal contiguous blocks, and an idle worker steals from the
-    tail of another's queue): collected first as one run, they all went to one worker,
-    which ran them one after another (372 s) while the other two ran the short tests and
-    then idled. The shares are even in number of tests, not in cost."""
+    """The slow tests first. Under ``--dist worksteal`` (``make test``) dealt out to
+    SLOW_LANES workers, each lane's share at the head of the block the scheduler first sends
+    it (it splits the collection into equal contiguous blocks, and an idle worker steals from
+    the tail of another's queue); the shares are even in number of tests, not in cost.
+    Until 2026-12-07 this read ``--dist`` in the worker, where xdist has set it to "no": all
+    slow tests went to one worker, and the others took them up only by stealing, late. Whole
+    suites in a work tree, quiet, one run each: that accident 254 s, four lanes 264 s (and a
+    test failed that a loaded machine fails: four graphs side by side), two lanes 258 s."""
     slow = sorted(filter(_is_slow, items), key=lambda item: SLOW_FIRST.index(item.path.name))
     short = [item for item in items if not _is_slow(item)]
     workers = getattr(config, "workerinput", {}).get("workercount", 1)
-    if workers == 1 or config.getoption("dist", "no") != "worksteal":
+    if workers == 1 or _dist_mode(config) != "worksteal":
         items[:] = slow + short
         return
     units: list[list] = []  # each dealt to one worker: a test, or a whole module
@@ -108,8 +122,8 @@ def pytest_collection_modifyitems(config, items):
         else:
             units.append([item])
     shares: list[list] = [[] for _ in range(workers)]
-    for unit in units:  # to the share with the fewest slow tests so far
-        min(shares, key=len).extend(unit)
+    for unit in units:  # to the lane with the fewest slow tests so far
+        min(shares[:SLOW_LANES], key=len).extend(unit)
     ordered, left = [], len(items)
     for k, share in enumerate(shares):  # the scheduler's block sizes, as worksteal computes them
         block = left // (workers - k)

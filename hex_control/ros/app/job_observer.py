@@ -13,6 +13,7 @@ from collections import Counter
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.action import ActionClient
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
 
 from hex_control.grinding.job_report import JobRecord
 from hex_control.ros.infra.interfaces import RESULTS, STREAM, TELEMETRY, contour_from_message, stamp_s
@@ -21,6 +22,12 @@ from hex_control.ros.infra.messages import to_primitive
 from hex_control_msgs.action import GrindBead
 from hex_control_msgs.msg import Contour as ContourMsg
 from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, PassResult, PlantTelemetry
+
+#: the plant's telemetry as its nodes take it, but 1000 batches deep (100 s of sim time, 14 s of
+#: wall time at 7x), so that batches wait while this process's executor waits for a core. At 100
+#: a loaded suite once lost 2.9 s of a pass (test_determinism, four workers on two cores): that
+#: the reader overflowed is likely, not shown (the plant's writer keeps 100 batches too).
+OBSERVED_TELEMETRY = QoSProfile(depth=1000, reliability=TELEMETRY.reliability, durability=TELEMETRY.durability)
 
 #: PassResult.status by value (FAULTED: ran, but not as planned), GrindBead.Result.reason by value
 PASS_STATUSES = ("completed", "aborted", "rejected", "faulted")
@@ -66,7 +73,7 @@ class JobObserver(Node):
                 (GrindBead.Feedback, "sequence_planner/job_feedback", self._on_feedback, RESULTS, "sequence_planner"),
                 (PassResult, "grinding/pass_result", self._on_result, RESULTS, ("plant", "pass_planner")),
                 (ForceTrajectory, "grinding/force_trajectory", self._on_trajectory, RESULTS, "pass_planner"),
-                (PlantTelemetry, "plant/telemetry", self._on_telemetry, TELEMETRY, "plant"),
+                (PlantTelemetry, "plant/telemetry", self._on_telemetry, OBSERVED_TELEMETRY, "plant"),
                 (GrindBead.Result, "sequence_planner/job_result", self._on_job_result, RESULTS, "sequence_planner"),
                 (LoadPrediction, "load_predictor/pass/prediction", self._on_k1, STREAM, "load_predictor/pass")):
             info_subscription(self, msg_type, topic, callback, qos, diagnostics=_Tally(self.refused), name=topic,
