@@ -90,29 +90,24 @@ def _is_slow(item) -> bool:
                                               or item.name in SLOW_WITHOUT_ROS_ENV)
 
 
-def _dist_mode(config) -> str:
-    """``--dist`` as the run was started with: xdist sets it to "no" in its workers."""
-    argv = getattr(config, "workerinput", {}).get("mainargv", [])
-    for flag, value in zip(argv, argv[1:]):
-        if flag == "--dist":
-            return value
-    given = [arg.split("=", 1)[1] for arg in argv if arg.startswith("--dist=")]
-    return given[0] if given else config.getoption("dist", "no")
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node):
+    """In xdist's controller, for each worker: the ``--dist`` it parsed (xdist sets the
+    worker's own to "no")."""
+    node.workerinput["dist"] = node.config.getoption("dist")
 
 
 def pytest_collection_modifyitems(config, items):
     """The slow tests first. Under ``--dist worksteal`` (``make test``) dealt out to
     SLOW_LANES workers, each lane's share at the head of the block the scheduler first sends
     it (it splits the collection into equal contiguous blocks, and an idle worker steals from
-    the tail of another's queue); the shares are even in number of tests, not in cost.
-    Until 2026-12-07 this read ``--dist`` in the worker, where xdist has set it to "no": all
-    slow tests went to one worker, and the others took them up only by stealing, late. Whole
-    suites in a work tree, quiet, one run each: that accident 254 s, four lanes 264 s (and a
-    test failed that a loaded machine fails: four graphs side by side), two lanes 258 s."""
+    the tail of another's queue); the shares are even in number of tests, not in cost. Why
+    two lanes: docs/testing.md."""
     slow = sorted(filter(_is_slow, items), key=lambda item: SLOW_FIRST.index(item.path.name))
     short = [item for item in items if not _is_slow(item)]
     workers = getattr(config, "workerinput", {}).get("workercount", 1)
-    if workers == 1 or _dist_mode(config) != "worksteal":
+    dist = getattr(config, "workerinput", {}).get("dist", config.getoption("dist", "no"))
+    if workers == 1 or dist != "worksteal":
         items[:] = slow + short
         return
     units: list[list] = []  # each dealt to one worker: a test, or a whole module

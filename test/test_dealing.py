@@ -1,8 +1,7 @@
 """The suite's own scheduling (conftest.py): under ``-n 4 --dist worksteal`` the first
 blocks of tests of SLOW_LANES workers begin with their share of the slow ones, the others
-with quick ones. (xdist sets ``--dist`` to "no" in its workers, where the dealing runs: read
-as given, every slow test once went to one worker, and the others took them up only by
-stealing, late in the run.)"""
+with quick ones. The dealing runs in the workers, where xdist has set ``--dist`` to "no":
+the controller hands on what it parsed (pytest_configure_node)."""
 
 from pathlib import Path
 from types import SimpleNamespace
@@ -15,9 +14,16 @@ def _item(module: str, name: str, ros: bool):
                            fixturenames=["ros_env"] if ros else [])
 
 
-def _config(argv: list[str], workers: int = 4):
-    return SimpleNamespace(workerinput={"workercount": workers, "mainargv": argv},
-                           getoption=lambda name, default=None: "no")  # as xdist leaves it in a worker
+def _config(dist: str, workers: int = 4):
+    """A worker's config: the controller's --dist handed on, its own set to "no"."""
+    return SimpleNamespace(workerinput={"workercount": workers, "dist": dist},
+                           getoption=lambda name, default=None: "no")
+
+
+def test_the_controller_hands_its_dist_mode_on_to_each_worker():
+    node = SimpleNamespace(workerinput={}, config=SimpleNamespace(getoption=lambda name: "worksteal"))
+    conftest.pytest_configure_node(node)
+    assert node.workerinput["dist"] == "worksteal"
 
 
 def _collection():
@@ -40,23 +46,22 @@ def _blocks(items, workers: int = 4) -> list[list]:
 
 
 def test_the_slow_lanes_start_with_their_share_of_the_slow_tests():
-    for argv in (["-m", "pytest", "-n", "4", "--dist", "worksteal", "test"], ["pytest", "--dist=worksteal", "-n4"]):
-        items = _collection()
-        conftest.pytest_collection_modifyitems(_config(argv), items)
-        assert sorted(i.name for i in items) == sorted(i.name for i in _collection())  # all, once
-        blocks = _blocks(items)
-        heads = [[i.name for i in block if conftest._is_slow(i)] for block in blocks]
-        assert heads[0][0] == "build"  # the costliest first
-        lanes = conftest.SLOW_LANES
-        assert all(heads[:lanes]) and not any(heads[lanes:]), heads
-        assert abs(len(heads[0]) - len(heads[1])) <= 3  # dealt evenly (the CLI module is one unit)
-        cli_blocks = {k for k, block in enumerate(blocks) for i in block if i.name.startswith("cli")}
-        assert len(cli_blocks) == 1  # the module whose fixtures serve it whole: one worker
-        for block, head in zip(blocks, heads):
-            assert [i.name for i in block[:len(head)]] == head  # at the block's head
+    items = _collection()
+    conftest.pytest_collection_modifyitems(_config("worksteal"), items)
+    assert sorted(i.name for i in items) == sorted(i.name for i in _collection())  # all, once
+    blocks = _blocks(items)
+    heads = [[i.name for i in block if conftest._is_slow(i)] for block in blocks]
+    assert heads[0][0] == "build"  # the costliest first
+    lanes = conftest.SLOW_LANES
+    assert all(heads[:lanes]) and not any(heads[lanes:]), heads
+    assert abs(len(heads[0]) - len(heads[1])) <= 3  # dealt evenly (the CLI module is one unit)
+    cli_blocks = {k for k, block in enumerate(blocks) for i in block if i.name.startswith("cli")}
+    assert len(cli_blocks) == 1  # the module whose fixtures serve it whole: one worker
+    for block, head in zip(blocks, heads):
+        assert [i.name for i in block[:len(head)]] == head  # at the block's head
 
 
 def test_without_worksteal_the_slow_tests_simply_come_first():
     items = _collection()
-    conftest.pytest_collection_modifyitems(_config(["pytest", "-n", "4", "--dist", "load"]), items)
+    conftest.pytest_collection_modifyitems(_config("load"), items)
     assert [i.name for i in items[:10]] == ["build", *(f"e2e_{k}" for k in range(6)), "cli_0", "cli_1", "cli_2"]

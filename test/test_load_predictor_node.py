@@ -273,11 +273,12 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
     assert "/live/load [std_msgs/msg/Float64]" in listing.stdout
 
     # each echo discovers the graph afresh: its bound (discovery included) as test_ros_cli's
-    echo = hexctl(ros_env, "topic", "echo", "/live/load_predictor/prediction", "--once", "--timeout", "60")
+    echo = hexctl(ros_env, "topic", "echo", "/live/load_predictor/prediction", "--once", "--timeout", "60",
+                  timeout=90.0)
     assert echo.returncode == 0, echo.stderr
     assert "quantity: normal_force_n" in echo.stdout and "prediction_variance:" in echo.stdout
     field = hexctl(ros_env, "topic", "echo", "/live/load_predictor/prediction", "--count", "2",
-                   "--field", "model_a", "--timeout", "60")
+                   "--field", "model_a", "--timeout", "60", timeout=90.0)
     assert field.stdout.split("---")[0].strip().startswith(str(MODEL.a))
 
     # hz against the rate the source kept meanwhile (its DDS publish times and sequence

@@ -278,10 +278,13 @@ class PlantCore:
 
     def free_run(self) -> bool:
         """Every control period of wall time (over real_time_factor) while running free: a
-        lock-step whose controller fell silent runs on. False once it answers again."""
-        if self.gate.free_running and self._covered():
-            self._advance()
-        return self.gate.free_running
+        lock-step whose controller fell silent runs on. False when no step is due (the
+        controller answers again, the next pass is not covered, the run is over): the node's
+        timer then stops until the watchdog finds the plant running free again."""
+        if not (self.gate.free_running and self._covered()):
+            return False
+        self._advance()
+        return not self._run_over()
 
     def realtime_tick(self) -> None:
         for _ in range(self.pacer.due(self.clock())):
@@ -318,11 +321,14 @@ class PlantCore:
         if active:
             self.sim.command_struts(active[-1].at(self.sim.time_s))
 
+    def _run_over(self) -> bool:
+        return 0 < self.settings.end_time_s <= self.sim.time_s + 1e-9
+
     def _advance(self) -> None:
         s = self.settings
-        if 0 < s.end_time_s <= self.sim.time_s + 1e-9:
+        if self._run_over():
             self.loop_end_s = self.loop_end_s or self.clock()
-            return  # the run is over: hold still
+            return  # hold still
         self.gate.holding = False
         self.gate.timing.cycle()
         command_age_s = self.sim.time_s - self.last_command_s

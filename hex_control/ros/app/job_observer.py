@@ -25,8 +25,8 @@ from hex_control_msgs.msg import ForceTrajectory, LoadPrediction, PassCommand, P
 
 #: the plant's telemetry as its nodes take it, but 1000 batches deep (100 s of sim time, 14 s of
 #: wall time at 7x), so that batches wait while this process's executor waits for a core. At 100
-#: a loaded suite once lost 2.9 s of a pass (test_determinism, four workers on two cores): that
-#: the reader overflowed is likely, not shown (the plant's writer keeps 100 batches too).
+#: a loaded suite once lost 2.9 s of a pass (test_determinism, four workers on two cores); that
+#: this reader overflowed is likely, not shown (its count of ``lost_plant/telemetry`` was not kept).
 OBSERVED_TELEMETRY = QoSProfile(depth=1000, reliability=TELEMETRY.reliability, durability=TELEMETRY.durability)
 
 #: PassResult.status by value (FAULTED: ran, but not as planned), GrindBead.Result.reason by value

@@ -111,6 +111,11 @@ def in_background(function, *args, then: tuple | None = None) -> Future:
     return future
 
 
+#: wall s: how often a node polls for its timeouts; background work it waits on wakes it when
+#: done (``in_background``'s ``then``), so this is a backstop, not a latency
+POLL_S = 0.1
+
+
 def wake(node, callback) -> None:
     """Run ``callback`` on ``node``'s executor soon; safe from any thread (the events
     executor has no guard conditions, but its task queue, like rclpy's executors', takes

@@ -23,7 +23,7 @@ from hex_control.ros.infra.diagnostics import Diagnostics
 from hex_control.ros.infra.message_info import foreign_publishers, info_subscription
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
-from hex_control.ros.infra.runtime import in_background, run_node, wake, wall_timer
+from hex_control.ros.infra.runtime import POLL_S, in_background, run_node, wake, wall_timer
 from hex_control.ros.nodes.pass_planner_messages import (
     force_trajectory_message,
     reach_request,
@@ -36,7 +36,6 @@ from hex_control_msgs.srv import TestPose
 
 RESEND_S = 2.0  # a TestPose request unanswered this long (wall s) is sent again
 FAULT_HOLD_S = 10.0  # a refusal or a part-safety change is a WARN this long (wall s)
-POLL_S = 0.1  # wall s: timeouts and resends; a finished plan or reach answer wakes the node at once
 
 PARAMETERS = {
     "config": Spec("pass_planner.yaml", "pass planner YAML (config/): disk model, planner, control, path"),

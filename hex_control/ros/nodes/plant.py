@@ -80,6 +80,7 @@ class PlantNode(Node):
         self.streams = PlantStreams(self, self.core.strut_names, period_s, p("clock_period_s"),
                                     telemetry_period_s=p("telemetry_period_s"), debug_streams=p("debug_streams"),
                                     grinding=self.workpiece is not None)
+        self.measurement, self.state, self.hold = self.streams.measurement, self.streams.state, self.streams.hold
         for topic, msg_type, callback, qos, owner, name in (
                 ("plant/force_axis_command", ForceAxisCommand, self._on_force_command, 100, "force_command_owner",
                  "force_command"),
@@ -109,15 +110,22 @@ class PlantNode(Node):
         tick_s = period_s / p("real_time_factor")  # wall s
         if p("mode") == "realtime":
             self.create_timer(tick_s, self.core.realtime_tick)
-        else:  # the free run's timer runs only while the controller is silent (else 200 idle wakeups/s)
-            (free_run := self.create_timer(tick_s, lambda: self.core.free_run() or free_run.cancel())).cancel()
-            self.create_timer(p("lockstep_timeout_s") / 4, lambda: self.core.lockstep_watchdog(
-                self.p("lockstep_timeout_s")) and free_run.is_canceled() and free_run.reset())
+        else:  # the free run's timer runs only while a step is due (else 200 idle wakeups/s)
+            self.free_run = self.create_timer(tick_s, self._free_run, autostart=False)
+            self.create_timer(p("lockstep_timeout_s") / 4, self._watchdog)
         wall_timer(self, 1.0, self._report)
         self.core.publish_state()
 
     def p(self, name: str):
         return self.get_parameter(name).value
+
+    def _watchdog(self) -> None:
+        if self.core.lockstep_watchdog(self.p("lockstep_timeout_s")) and self.free_run.is_canceled():
+            self.free_run.reset()
+
+    def _free_run(self) -> None:
+        if not self.core.free_run():
+            self.free_run.cancel()
 
     def _owner(self, parameter: str) -> str:
         """The owner's fully qualified name: a relative name is the plant's namespace's node."""
@@ -155,16 +163,7 @@ class PlantNode(Node):
     def _on_controller_status(self, msg: DiagnosticStatus) -> None:
         self.core.on_controller_status(msg.message, {pair.key: pair.value for pair in msg.values})
 
-    # -- outputs (PlantOutputs) --------------------------------------------------------------
-    def measurement(self, time_s: float, measured_force_n: float) -> None:
-        self.streams.measurement(time_s, measured_force_n)
-
-    def state(self, snapshot) -> None:
-        self.streams.state(snapshot)
-
-    def hold(self, snapshot) -> None:
-        self.streams.hold(snapshot)
-
+    # -- outputs (PlantOutputs; measurement, state and hold are the streams') ---------------
     def pass_started(self, scheduled) -> None:
         if self.p("workpiece_file"):  # which pass was under way, should the plant stop before its scan
             self.workpiece = replace(self.workpiece, started=(scheduled.job_id, scheduled.pass_index,

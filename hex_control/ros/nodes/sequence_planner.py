@@ -26,7 +26,7 @@ from hex_control.ros.infra.interfaces import LATCHED, RESULTS
 from hex_control.ros.infra.message_info import info_subscription, owner_publishes
 from hex_control.ros.infra.parameters import ParameterSpec as Spec
 from hex_control.ros.infra.parameters import declare_parameters
-from hex_control.ros.infra.runtime import in_background, run_node, wall_timer
+from hex_control.ros.infra.runtime import POLL_S, in_background, run_node, wall_timer
 from hex_control.ros.nodes.sequence_planner_messages import (
     command_message,
     goal_request,
@@ -113,7 +113,7 @@ class SequencePlannerNode(Node):
                                        self.core.accept(goal_request(handle.request), handle, now())),
                                    cancel_callback=self._on_cancel)
         wall_timer(self, 1.0, lambda: self._do(self.core.tick(now())))
-        wall_timer(self, 0.1, self._poll_solve)  # a backstop: a finished solve wakes the node at once
+        wall_timer(self, POLL_S, self._poll_solve)
         self._do(self.core.resume(now()))
         in_background(import_numerics)  # before a goal comes, not in its first solve
 
