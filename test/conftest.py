@@ -71,8 +71,7 @@ def spawn(ros_env, tmp_path, request):
 
 
 #: the modules whose tests run whole graphs or builds (tens of seconds each, half the suite's
-#: wall time), costliest first: the colcon build, on a fresh checkout the longest single test,
-#: was once dealt late in a share and ran alone for the suite's last 44 s
+#: wall time), costliest first (the colcon build: on a fresh checkout the longest single test)
 SLOW_FIRST = ("test_colcon_build.py", "test_end_to_end.py", "test_ros_cli.py", "test_attacks.py", "test_bench.py",
               "test_campaign.py", "test_determinism.py", "test_demo.py", "test_hostile_inputs.py")
 #: of those, the modules whose fixtures serve the whole module: dealt to one worker whole

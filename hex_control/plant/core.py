@@ -252,8 +252,8 @@ class PlantCore:
         after the first answer, say the waiting measurement once more when a quarter of the
         timeout has passed (it or its answer was lost on the way: a flood on the topic
         overflows its queue; the controller answers a repeat with the same command), and run
-        free once the controller has been silent the whole timeout. True while running free:
-        :meth:`free_run` is then due every control period."""
+        free once the controller has been silent the whole timeout. True while running free
+        (the node then calls :meth:`free_run` every control period, until it says False)."""
         self._watch(timeout_s)
         return self.gate.free_running
 

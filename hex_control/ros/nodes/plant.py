@@ -111,7 +111,7 @@ class PlantNode(Node):
         if p("mode") == "realtime":
             self.create_timer(tick_s, self.core.realtime_tick)
         else:  # the free run's timer runs only while a step is due (else 200 idle wakeups/s)
-            self.free_run = self.create_timer(tick_s, self._free_run, autostart=False)
+            self.free_run_timer = self.create_timer(tick_s, self._free_run, autostart=False)
             self.create_timer(p("lockstep_timeout_s") / 4, self._watchdog)
         wall_timer(self, 1.0, self._report)
         self.core.publish_state()
@@ -120,12 +120,12 @@ class PlantNode(Node):
         return self.get_parameter(name).value
 
     def _watchdog(self) -> None:
-        if self.core.lockstep_watchdog(self.p("lockstep_timeout_s")) and self.free_run.is_canceled():
-            self.free_run.reset()
+        if self.core.lockstep_watchdog(self.p("lockstep_timeout_s")) and self.free_run_timer.is_canceled():
+            self.free_run_timer.reset()
 
     def _free_run(self) -> None:
         if not self.core.free_run():
-            self.free_run.cancel()
+            self.free_run_timer.cancel()
 
     def _owner(self, parameter: str) -> str:
         """The owner's fully qualified name: a relative name is the plant's namespace's node."""
