@@ -62,8 +62,9 @@ demo: setup
 
 # one OpenBLAS thread (unless set): beside a busy graph or a loaded machine its worker threads
 # spin for cores others hold (a shaping test took 507 s under two CPU burners, 23 s with one).
-# Four workers on two cores: a worker waits for much of its time (discovery, a lock-step chain
-# holding one core; 265-283 s where three took 310-328, alternating runs; docs/testing.md)
+# Four workers on two cores: a worker waits for part of its time (discovery, a lock-step chain
+# holding one core): 265-283 s where three took 310-328, alternating runs; with four the cores
+# are 90 % busy, with six 98 % and the run slower (docs/testing.md)
 test: setup
 	OPENBLAS_NUM_THREADS=$${OPENBLAS_NUM_THREADS:-1} $(PY) -m pytest -q -n 4 --dist worksteal --durations=20 test
 
