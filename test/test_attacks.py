@@ -375,20 +375,32 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     sequence planner stops the pass in flight, the force controller retracts within its ramp
     (0.5 s), and the plant reports the pass as not run as planned."""
     a = attack(plant_overrides={"lockstep_timeout_s": 8.0})  # the plant waits out the stopped controller
-    stops = []
+    stops, stopped_at = [], []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
-    start_job(a)
-    in_pass(a, 1)
     # the cancel is wall time and the lock-step clock runs on meanwhile: beside two CPU
     # burners the pass once ended first (COMPLETED). Its clock stands while the force
     # controller does not answer, until the stop is out (a second of silence made the plant
-    # run free on the wall clock with the held command, and the pass end COMPLETED once more)
+    # run free on the wall clock with the held command, and the pass end COMPLETED once more).
+    # The controller is stopped on the plant's first wrench of pass 1 that grinds, as it comes:
+    # stopped once the observer's telemetry showed it, the clock once stood after the pass ended
     controller = a.session.graph.processes["force_controller"]
-    controller.send_signal(signal.SIGSTOP)
+
+    def stop_the_controller_in_pass_1(wrench) -> None:
+        trajectory = a.record.trajectories.get(1)
+        if not stopped_at and trajectory and stamp_s(wrench.header.stamp) > trajectory[0] \
+                and wrench.wrench.force.z > 10.0:
+            controller.send_signal(signal.SIGSTOP)
+            stopped_at.append(stamp_s(wrench.header.stamp))
+
+    a.rogue.create_subscription(WrenchStamped, "plant/wrench", stop_the_controller_in_pass_1, 100)
+    start_job(a)
     try:
+        a.spin_until(lambda: stopped_at, "pass 1 to grind")
+        grind_start, times_s, _ = a.record.trajectories[1]
+        assert stopped_at[0] < grind_start + times_s[-1], "the controller was stopped only after pass 1's grinding"
         a.session.cancel_job()
         a.spin_until(lambda: stops, "the sequence planner's stop of pass 1", 60.0)
-        cancelled_at = a.record.force[-1][0]  # the clock's last state, the observer's by now
+        cancelled_at = stopped_at[0]  # the clock stood within a period of it
     finally:
         controller.send_signal(signal.SIGCONT)
     outcome = run_to_end(a)
