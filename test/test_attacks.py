@@ -377,12 +377,10 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     a = attack(plant_overrides={"lockstep_timeout_s": 8.0})  # the plant waits out the stopped controller
     stops, stopped_at = [], []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
-    # the cancel is wall time and the lock-step clock runs on meanwhile: beside two CPU
-    # burners the pass once ended first (COMPLETED). Its clock stands while the force
-    # controller does not answer, until the stop is out (a second of silence made the plant
-    # run free on the wall clock with the held command, and the pass end COMPLETED once more).
-    # The controller is stopped on the plant's first wrench of pass 1 that grinds, as it comes:
-    # stopped once the observer's telemetry showed it, the clock once stood after the pass ended
+    # the cancel is wall time and the lock-step clock runs on meanwhile, so the clock is made
+    # to stand (the force controller stopped) until the stop is out: on the plant's first
+    # wrench of pass 1 that grinds, as it comes (the observer's batched telemetry can be a pass
+    # behind), and within lockstep_timeout_s (else the plant runs free with the held command)
     controller = a.session.graph.processes["force_controller"]
 
     def stop_the_controller_in_pass_1(wrench) -> None:
