@@ -55,11 +55,11 @@ $(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES)
 	$(PY) -c "import hex_control_msgs.msg, hex_control_msgs.srv, hex_control_msgs.action"
 	touch $@
 
-# 3. hex_control itself, editable, its C contact kernel built in place, its byte code written
+# 3. hex_control itself, editable, its C kernels built in place, its byte code written
 #    (as the venv's, 1b). setup.cfg puts the scripts in lib/hex_control (the layout `ros2 run`
 #    expects); link the user-facing ones onto the venv's PATH too.
 $(VENV)/.stamp-package: $(VENV)/.stamp-bytecode $(VENV)/.stamp-tf2-msgs $(VENV)/.stamp-msgs setup.py setup.cfg \
-                       hex_control/grinding/_contact_c.c
+                       hex_control/grinding/_contact_c.c hex_control/kinematics/_stewart_c.c
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps --no-build-isolation -e .
 	$(PY) -m compileall -q hex_control
 	cd $(VENV)/bin && for script in ../lib/hex_control/hexctl ../lib/hex_control/hex-*; do \

@@ -25,12 +25,16 @@ NODES = {
 CONTACT_KERNEL = Extension(f"{PACKAGE}.grinding._contact_c", [f"{PACKAGE}/grinding/_contact_c.c"],
                            extra_compile_args=["-O2", "-ffp-contract=off", "-fno-builtin-sin", "-fno-builtin-cos",
                                                "-fno-builtin-tan"], optional=True)
+# The plant's per-period forward kinematics in C (kinematics/_stewart_c.c; stewart.py runs the
+# same Newton steps in numpy when it is not built)
+FK_KERNEL = Extension(f"{PACKAGE}.kinematics._stewart_c", [f"{PACKAGE}/kinematics/_stewart_c.c"],
+                      extra_compile_args=["-O2"], optional=True)
 
 setup(
     name=PACKAGE,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*"]),
-    ext_modules=[CONTACT_KERNEL],
+    ext_modules=[CONTACT_KERNEL, FK_KERNEL],
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),

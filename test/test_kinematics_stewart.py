@@ -271,10 +271,11 @@ def test_bad_geometry_and_poses_are_refused():
         check_poses(NIST, [0, 0, 0])
 
 
-def test_tracking_forward_kinematics_follows_a_move_as_the_batch_solver_does():
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "numpy"])
+def test_tracking_forward_kinematics_follows_a_move_as_the_batch_solver_does(compiled):
     """The plant's FK (one warm evaluation per control period) against the batch
-    Newton-Raphson, pose by pose along a 40 mm move with a tilt; its Jacobian is the batch
-    one's to rounding."""
+    Newton-Raphson, pose by pose along a 40 mm move with a tilt, its steps compiled or in
+    numpy; its Jacobian is the batch one's to rounding."""
     from hex_control.kinematics.stewart import (
         TrackingForwardKinematics,
         _lengths_and_jacobian,
@@ -286,7 +287,7 @@ def test_tracking_forward_kinematics_follows_a_move_as_the_batch_solver_does():
     home = np.asarray(NIST.home_pose, float)
     poses = home + np.outer(np.linspace(0.0, 1.0, 200), [40.0, -10.0, -20.0, 0.05, -0.03, 0.02])
     lengths = strut_lengths(NIST, poses)
-    tracking = TrackingForwardKinematics(NIST, home)
+    tracking = TrackingForwardKinematics(NIST, home, compiled=compiled)
     solved = np.array([tracking.solve(row) for row in lengths])
     batch = np.array([forward_kinematics(NIST, row, home, tolerance_mm=1e-7)[0] for row in lengths])
     np.testing.assert_allclose(solved, poses, atol=1e-6)
@@ -298,3 +299,38 @@ def test_tracking_forward_kinematics_follows_a_move_as_the_batch_solver_does():
     # a jump far from the last pose: the few warm steps fall back to the full solver
     far = home + np.array([300.0, 200.0, 150.0, 0.2, 0.1, -0.1])
     np.testing.assert_allclose(tracking.solve(strut_lengths(NIST, far)[0]), far, atol=1e-6)
+
+
+def test_the_compiled_tracking_steps_are_numpys_to_rounding_and_fail_alike():
+    """_stewart_c.c against the numpy steps it was made from: the same poses along a
+    machine-like move (50 um and 0.05 mrad a period, two Newton steps each) to 1e-11 mm, the
+    same fall-back to the full solver on a jump, the same error for lengths no pose has, and
+    the state left as it was on a failure."""
+    from hex_control.kinematics import stewart
+    from hex_control.kinematics.stewart import ForwardKinematicsError, TrackingForwardKinematics, strut_lengths
+
+    assert stewart._compiled is not None, "setup.py builds the compiled steps: they must load"
+    home = np.asarray(NIST.home_pose, float)
+    moves = home + np.outer(np.linspace(0.0, 1.0, 2000), [100.0, 20.0, -30.0, 0.1, 0.05, -0.02])
+    jump = home + np.array([300.0, 200.0, 150.0, 0.2, 0.1, -0.1])
+    lengths = strut_lengths(NIST, np.vstack([moves, jump, home]))
+    solved = {}
+    for compiled in (True, False):
+        tracking = TrackingForwardKinematics(NIST, home, compiled=compiled)
+        solved[compiled] = np.array([tracking.solve(row) for row in lengths[:-2]])
+        # the lengths and Jacobian it keeps for the next period's steps are those of its pose
+        kept_lengths, kept_jacobian = stewart._lengths_and_jacobian(NIST, tracking.pose)
+        np.testing.assert_allclose(tracking._lengths, kept_lengths, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(tracking._jacobian, kept_jacobian, rtol=0, atol=1e-12)
+        solved[compiled] = np.vstack([solved[compiled], [tracking.solve(row) for row in lengths[-2:]]])
+        with pytest.raises(ForwardKinematicsError):
+            tracking.solve(np.full(6, 1.0))  # 1 mm struts: no pose
+        np.testing.assert_array_equal(tracking.pose, solved[compiled][-1])  # unchanged by the failure
+    np.testing.assert_allclose(solved[True], solved[False], rtol=0, atol=1e-11)
+    np.testing.assert_allclose(solved[True][:-2], moves, rtol=0, atol=1e-9)
+    tracking = TrackingForwardKinematics(NIST, home)
+    with pytest.raises(ValueError, match="6 strut lengths"):
+        tracking.solve(np.ones(5))
+    with pytest.raises(ValueError, match="float64"):  # the kernel checks what it is handed
+        stewart._compiled.track(tracking._joints, tracking._base, tracking.pose, tracking._lengths,
+                                tracking._jacobian[:5], np.ones(6), 1e-7, 4)
