@@ -172,8 +172,11 @@ class JobSession:
         naming what it waited for."""
         record, observer = self.record, self.observer
         self.spin_until(lambda: record.contours, 60.0, "the plant's first scan")
-        self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
-                        "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
+        try:
+            self.spin_until(lambda: not missing_stream_edges(observer), 60.0,
+                            "the control streams to match (pass planner -> shaper -> kinematics -> plant, force loop)")
+        except TimeoutError as exc:
+            raise TimeoutError(f"{exc}; not seen: {', '.join(missing_stream_edges(observer))}") from None
         self.spin_until(lambda: observer.planner_hears_predictor, 60.0, "the sequence planner to hear the K1 predictor")
         self.spin_until(lambda: all(observer.count_publishers(topic) for topic in HANDOVER_TOPICS), 60.0,
                         f"the publishers of {', '.join(HANDOVER_TOPICS)} to be discovered")
