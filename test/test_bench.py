@@ -27,6 +27,7 @@ def test_kinematics_benchmarks_print_their_figures(capsys):
     assert re.search(r"vectorized check_poses:\s*[\d,]+ poses/s", out)
     assert re.search(r"1200-sector map .*: \d+ ms", out)
     assert re.search(r"batch Newton-Raphson:\s*[\d,]+ solves/s, mean [\d.]+ iterations, converged 100.0%", out)
+    assert re.search(r"tracking FK, .* compiled [\d.]+ us, numpy [\d.]+ us \(baseline\), ratio \d+x", out)
 
 
 def test_sdp_and_shaping_benchmarks_print_their_figures(capsys):

@@ -11,7 +11,13 @@ import numpy as np
 from hex_control.bench import benchmark, best_time
 from hex_control.config import config_file
 from hex_control.kinematics import load_machine
-from hex_control.kinematics.stewart import check_poses, forward_kinematics, forward_kinematics_batch, strut_lengths
+from hex_control.kinematics.stewart import (
+    TrackingForwardKinematics,
+    check_poses,
+    forward_kinematics,
+    forward_kinematics_batch,
+    strut_lengths,
+)
 from hex_control.kinematics.workspace import compute_workspace, find_center, sphere_directions
 
 
@@ -97,7 +103,24 @@ def fk_speed(quick: bool) -> list[str]:
             f"mean {solution.iterations.mean():.2f} iterations, converged {solution.converged.mean():.1%}, "
             f"max pose error {error[:, :3].max():.1e} mm / {error[:, 3:].max():.1e} rad",
             f"one solve at a time : {len(few) / loop:10,.0f} solves/s   (baseline)",
-            f"ratio: {(len(poses) / batch_time) / (len(few) / loop):.0f}x"]
+            f"ratio: {(len(poses) / batch_time) / (len(few) / loop):.0f}x", *_tracking_lines(geometry, quick)]
+
+
+def _tracking_lines(geometry, quick: bool) -> list[str]:
+    """The plant's per-period FK (TrackingForwardKinematics) along a machine-like move
+    (50 um and 0.05 mrad a period), its Newton steps compiled against numpy's."""
+    home = np.asarray(geometry.home_pose, float)
+    periods = 500 if quick else 2000
+    lengths = strut_lengths(geometry, home + np.outer(np.linspace(0.0, 1.0, periods),
+                                                      [100.0, 20.0, -30.0, 0.1, 0.05, -0.02]))
+
+    def follow(compiled: bool):
+        tracker = TrackingForwardKinematics(geometry, home, compiled=compiled)
+        return lambda: [tracker.solve(row) for row in lengths]
+    numpy_s, compiled_s = (best_time(follow(compiled), repeat=3) for compiled in (False, True))
+    return [f"tracking FK, one solve a control period over {periods} periods: compiled "
+            f"{compiled_s / periods * 1e6:.1f} us, numpy {numpy_s / periods * 1e6:.1f} us (baseline), "
+            f"ratio {numpy_s / compiled_s:.0f}x"]
 
 
 @benchmark("pru3_dynamics")
