@@ -284,7 +284,11 @@ def test_two_cells_in_one_domain_each_finish_their_job_without_a_message_crossin
             elif topic == f"/cell{k}/plant/wrench":
                 stamp = deserialize_message(data, WrenchStamped).header.stamp
                 wrenches.append(stamp.sec * 1_000_000_000 + stamp.nanosec)
-        assert {f"/cell{k}/{topic}" for topic in GRAPH_TABLE} <= set(recorded), sorted(recorded)
+        missing = {f"/cell{k}/{topic}" for topic in GRAPH_TABLE} - set(recorded)
+        # a reader created but never given a message is in the recorder's counts (at 0); one never
+        # created is not (docs/known_problems.md: which of the two has not been seen yet)
+        assert not missing, (f"not recorded: {sorted(missing)}; of them subscribed: "
+                             f"{sorted(missing & set(session.recorder.counts))}; recorded: {sorted(recorded)}")
         steps = np.diff(sorted(sampled))
         assert len(steps) > 1000 and np.max(steps) < 0.005 + 1e-9  # every period from the first recorded on
         assert wrenches == [round(t * 1e9) for t in sorted(sampled)]
