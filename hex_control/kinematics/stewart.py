@@ -446,9 +446,9 @@ class TrackingForwardKinematics:
     batch solver). Falls back to :func:`forward_kinematics` (which raises
     ForwardKinematicsError) when a few steps do not reach ``tolerance_mm``.
 
-    The steps run compiled (``_stewart_c.c``: about 3 us a solve where numpy takes 35-70)
-    unless ``compiled`` is False or the module is not built; the two agree to about 1e-12 mm
-    (test_stewart_fk.py), not to the bit."""
+    The steps run compiled (``_stewart_c.c``: about 2 us a solve where numpy takes 35-65,
+    ``hexctl bench fk``) unless ``compiled`` is False or the module is not built; the two
+    agree to about 1e-12 mm (test_kinematics_stewart.py), not to the bit."""
 
     def __init__(self, geometry: StewartGeometry, guess=None, tolerance_mm: float = 1e-7, max_iterations: int = 4,
                  compiled: bool = True):
