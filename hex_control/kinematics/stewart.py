@@ -473,17 +473,24 @@ class TrackingForwardKinematics:
         if target.shape != (6,):
             raise ValueError(f"need 6 strut lengths, got shape {target.shape}")
         if self._compiled is not None:
-            if self._compiled.track(self._joints, self._base, self.pose, self._lengths, self._jacobian, target,
-                                    self.tolerance_mm, self.max_iterations):
-                return self.pose.copy()
-            self._reset(forward_kinematics(self.geometry, target, self.pose, self.tolerance_mm)[0])
+            reached = self._compiled.track(self._joints, self._base, self.pose, self._lengths, self._jacobian,
+                                           target, self.tolerance_mm, self.max_iterations)
+        else:
+            reached = self._numpy_steps(target)
+        if reached:
             return self.pose.copy()
+        self._reset(forward_kinematics(self.geometry, target, self.pose, self.tolerance_mm)[0])
+        return self.pose.copy()
+
+    def _numpy_steps(self, target: np.ndarray) -> bool:
+        """The Newton steps in numpy: True, with the state moved to the solution, if they reach
+        ``tolerance_mm``; the state as it was if not."""
         q, lengths, jac = self.pose, self._lengths, self._jacobian
         for step in range(self.max_iterations + 1):
             error = target - lengths
             if np.abs(error).max() < self.tolerance_mm:
                 self.pose, self._lengths, self._jacobian = q, lengths, jac
-                return q.copy()
+                return True
             if step == self.max_iterations:
                 break
             try:
@@ -493,5 +500,4 @@ class TrackingForwardKinematics:
             if not np.all(np.isfinite(q)):
                 break
             lengths, jac = _lengths_and_jacobian(self.geometry, q)
-        self._reset(forward_kinematics(self.geometry, target, self.pose, self.tolerance_mm)[0])
-        return self.pose.copy()
+        return False

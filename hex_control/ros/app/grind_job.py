@@ -48,10 +48,9 @@ STALL_S = 60.0
 #: wall seconds for a fresh graph's lock-step loop to close once its streams have matched
 #: (the plant's first state answered: at most one re-send, 1 s, after both sides matched)
 LOOP_START_S = 30.0
-#: the latched topics a pass is handed over on (depth 1): the observer (and its recorder) must
-#: know their publishers before the job starts, else a late discovery left it only the latest
-#: pass's (a two-cell test's observer once missed pass 0's trajectory, and its recording the
-#: pass planner's and kinematics' topics)
+#: the latched topics a pass is handed over on (depth 1): the observer must know their
+#: publishers before the job starts, else a late discovery left it only the latest pass's (a
+#: two-cell test's observer once missed pass 0's trajectory)
 HANDOVER_TOPICS = ("grinding/force_trajectory", "motion/tool_path_raw", "plant/strut_trajectory")
 
 
