@@ -5,11 +5,13 @@ imports, so `rosdep install --from-paths src` installs them.
 colcon's crawl (colcon_recursive_crawl: a directory identified as a package is not descended
 into) stops at the repository's root, the package hex_control, so the interface package in
 msg_defs/ is found only through a link beside the repository in the workspace's src/ (the
-README's set-up). The workspace of these tests persists in build/colcon_ws: colcon rebuilds
-only what changed, as it does for a user (the first build of hex_control_msgs takes about
-30 s, a rebuild a few seconds)."""
+README's set-up). The workspace of these tests, build/colcon_ws, is the one `make setup`
+builds the interface package in before installing it into the venv (the command of both is
+scripts/colcon_workspace.py): colcon finds it built and rebuilds only what changed, as it does
+for a user (a first build of hex_control_msgs takes about 30 s and 42 CPU s)."""
 
 import ast
+import importlib.util
 import os
 import subprocess
 import sys
@@ -58,33 +60,14 @@ def test_package_xml_declares_every_import():
     assert {"ament_index_python", "rclpy", "hex_control_msgs", "mcap-ros2-support"} <= keys
 
 
-WORKSPACE = ROOT / "build/colcon_ws"
+def _script():
+    spec = importlib.util.spec_from_file_location("colcon_workspace", ROOT / "scripts/colcon_workspace.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def _colcon(workspace: Path, *arguments: str, timeout_s: float = 900.0) -> subprocess.CompletedProcess:
-    venv = Path(sys.prefix)  # the underlay: the ROS 2 wheels, tf2_msgs built by make setup
-    env = dict(os.environ, AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
-    env.pop("COLCON_PREFIX_PATH", None)
-    # colcon's make gets -j<cores> -l<cores> unless MAKEFLAGS names -j or -l (under `make test`
-    # it is set, empty): beside the suite's other worker the load stays above the core count,
-    # so -l built the interface package one file at a time (222 s at load 10 for a full
-    # build); a job per core, whatever the load
-    env["MAKEFLAGS"] = f"-j{os.cpu_count() or 2}"
-    return subprocess.run([str(venv / "bin/colcon"), "--log-base", str(workspace / "log"), *arguments], cwd=workspace,
-                          env=env, capture_output=True, text=True, timeout=timeout_s)
-
-
-def _workspace(path: Path, *, with_link: bool = True) -> Path:
-    """A workspace holding the repository under src/ and, with ``with_link``, the README's
-    link to its interface package beside it."""
-    (path / "src").mkdir(parents=True, exist_ok=True)
-    for name, target in (("hex_control", ROOT), ("hex_control_msgs", Path("hex_control/msg_defs"))):
-        link = path / "src" / name
-        if link.is_symlink() and Path(os.readlink(link)) != target:
-            link.unlink()
-        if not link.is_symlink() and (name == "hex_control" or with_link):
-            link.symlink_to(target)
-    return path
+colcon_workspace = _script()
 
 
 def _packages(workspace: Path) -> dict[str, str]:
@@ -103,23 +86,29 @@ def _packages(workspace: Path) -> dict[str, str]:
 def test_colcon_finds_the_interface_package_only_through_the_link(tmp_path):
     """What colcon discovers: the repository alone is one package (the crawl does not enter
     it); with the link both, and never the nested tf2_msgs (a ROS 2 install has its own)."""
-    assert _packages(_workspace(tmp_path / "alone", with_link=False)) == {"hex_control": "ros.ament_python"}
-    assert _packages(_workspace(tmp_path / "linked")) == {"hex_control": "ros.ament_python",
-                                                          "hex_control_msgs": "ros.ament_cmake"}
+    alone = colcon_workspace.workspace(tmp_path / "alone", with_link=False)
+    assert _packages(alone) == {"hex_control": "ros.ament_python"}
+    linked = colcon_workspace.workspace(tmp_path / "linked")
+    assert _packages(linked) == {"hex_control": "ros.ament_python", "hex_control_msgs": "ros.ament_cmake"}
 
 
 def test_colcon_builds_both_packages_and_the_nodes_start_from_setup_bash(tmp_path, ros, ros_env):
     """`colcon build` of the workspace builds both packages; the installed nodes (plant,
     kinematics) start from a shell that sourced install/setup.bash and answer.
 
-    The interface package is built as `make setup` builds it, its C and Python parts only
+    The interface package is built with `make setup`'s command, its C and Python parts only
     (HEX_PYTHON_ONLY): the C++ generators a user's plain build adds are rosidl's own code,
-    untouched by ours, and on a fresh checkout they cost 33 of the build's 75 CPU s."""
-    workspace = _workspace(WORKSPACE)
-    result = _colcon(workspace, "build", "--cmake-args", "-DBUILD_TESTING=OFF", "-DHEX_PYTHON_ONLY=ON",
-                     f"-DPython3_EXECUTABLE={sys.executable}")
+    untouched by ours, and on a fresh checkout they cost 33 of the build's 75 CPU s. colcon
+    finds `make setup`'s build of it and does not configure it again: a command that drifted
+    from the set-up's would (and cost a fresh clone's suite 42 CPU s)."""
+    workspace = colcon_workspace.workspace()
+    cache = workspace / "build/hex_control_msgs/CMakeCache.txt"
+    configured = cache.stat().st_mtime_ns if cache.exists() else None
+    result = colcon_workspace.build(workspace)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "2 packages finished" in result.stdout
+    assert configured is not None and cache.stat().st_mtime_ns == configured, \
+        "colcon configured hex_control_msgs again: not built by make setup, or with other arguments"
     install = workspace / "install"
     assert (install / "setup.bash").exists() and (install / "hex_control/share/hex_control/package.bash").exists()
     executables = {p.name for p in (install / "hex_control/lib/hex_control").iterdir()}
