@@ -376,17 +376,22 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     (0.5 s), and the plant reports the pass as not run as planned.
 
     The cancel is wall time and the lock-step clock runs on meanwhile, so the clock is made to
-    stand (the force controller stopped) until the stop is out, on the plant's first wrench of
-    a pass that grinds. Where it stands is read, not assumed: the plant says its unanswered
-    state once more after a quarter of lockstep_timeout_s (2 s here), and that repeat's stamp
-    is the clock. This process hears the plant late on a busy machine (five workers on two
-    cores: the controller stopped after pass 1 had ended, which the plant rightly reported
-    COMPLETED); a clock that stands outside the pass's grinding lets the controller go on,
-    and the next pass is tried."""
+    stand while the stop goes out, and where it stands is read, not assumed:
+    1. on the plant's first wrench of a pass that grinds, the force controller is stopped
+       (SIGSTOP). The plant says its unanswered state once more after a quarter of
+       lockstep_timeout_s (2 s here): that repeat's stamp is where the clock stands. This
+       process hears the plant late on a busy machine (five workers on two cores: the
+       controller was stopped after pass 1 had ended); a clock standing outside the pass's
+       grinding lets the controller go on, and the next pass is tried.
+    2. the plant is stopped and the controller let go before the cancel: a process stopped
+       for more than 1-2 s gets what was sent to it meanwhile only at the sender's next
+       heartbeat, 3 s later (Fast DDS's shared memory port is found dead, the reliable
+       writer resends), and a stop held up so long let pass 1 grind to its end at 8x real
+       time, twice at -n 5. The plant goes on once the controller has counted the stop."""
     a = attack(plant_overrides={"lockstep_timeout_s": 8.0})  # the plant waits out the stopped controller
     stops = []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
-    controller = a.session.graph.processes["force_controller"]
+    controller, plant = (a.session.graph.processes[name] for name in ("force_controller", "plant"))
     clock = {"pass": 1, "stopped": False, "heard_s": -1.0, "standing_s": None}
 
     def stop_the_controller_while_grinding(wrench) -> None:
@@ -413,11 +418,15 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
             assert k < 3, f"the clock stood after the grinding of passes 1-{k}: this process heard the plant late"
             clock.update({"pass": k + 1, "stopped": False, "standing_s": None})
             controller.send_signal(signal.SIGCONT)
+        plant.send_signal(signal.SIGSTOP)
+        controller.send_signal(signal.SIGCONT)
         a.session.cancel_job()
         a.spin_until(lambda: stops, f"the sequence planner's stop of pass {k}", 60.0)
+        a.spin_until(lambda: a.counter("/force_controller", "passes_stopped"), "the controller to stop the pass", 60.0)
         cancelled_at = clock["standing_s"]
     finally:
         controller.send_signal(signal.SIGCONT)
+        plant.send_signal(signal.SIGCONT)
     outcome = run_to_end(a)
     assert outcome["reason"] == "cancelled"
     assert {m.pass_index for m in stops} == {k}
