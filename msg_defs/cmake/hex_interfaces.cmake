@@ -1,0 +1,39 @@
+# What both interface packages here (hex_control_msgs, and tf2_msgs for the venv) need
+# before rosidl_generate_interfaces.
+
+# Wheel quirk (ROS 2 from PyPI): the exported *__rosidl_generator_py targets of the
+# dependency packages list the wheel builder's include directory
+# (/opt/python/cp311-cp311/include/python3.11), which does not exist here. CMake
+# refuses targets with missing include directories, so drop the missing entries.
+# In a normal ROS 2 install every entry exists and this changes nothing.
+macro(hex_drop_missing_wheel_includes)
+  foreach(dep ${ARGN})
+    set(target "${dep}::${dep}__rosidl_generator_py")
+    if(TARGET ${target})
+      get_target_property(dirs ${target} INTERFACE_INCLUDE_DIRECTORIES)
+      if(dirs)
+        set(existing "")
+        foreach(dir ${dirs})
+          if(dir MATCHES "^\\$<" OR EXISTS "${dir}")
+            list(APPEND existing "${dir}")
+          endif()
+        endforeach()
+        set_target_properties(${target} PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${existing}")
+      endif()
+    endif()
+  endforeach()
+endmacro()
+
+# Python only (the Makefile's venv builds, and test_colcon_build's colcon build): the C++
+# generators and type supports, which nothing here loads, left out; a user's colcon or ament
+# build leaves this OFF and gets them all.
+option(HEX_PYTHON_ONLY "generate only what rclpy loads (C and Python)" OFF)
+if(HEX_PYTHON_ONLY)
+  set(python_only "")
+  foreach(extension ${AMENT_EXTENSIONS_rosidl_generate_idl_interfaces})
+    if(NOT extension MATCHES "^rosidl_(generator_cpp|typesupport_cpp|typesupport_fastrtps_cpp|typesupport_introspection_cpp):")
+      list(APPEND python_only "${extension}")
+    endif()
+  endforeach()
+  set(AMENT_EXTENSIONS_rosidl_generate_idl_interfaces "${python_only}")
+endif()
