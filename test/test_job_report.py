@@ -8,12 +8,12 @@ import math
 import matplotlib.pyplot as plt
 import pytest
 
+from hex_control.grinding.job_plots import strut_figure
 from hex_control.grinding.job_report import (
     JobRecord,
     job_statistics,
     load_job_summaries,
     specific_energy_by_pass,
-    strut_figure,
     write_report,
 )
 
