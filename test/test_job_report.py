@@ -5,10 +5,8 @@ from __future__ import annotations
 import json
 import math
 
-import matplotlib.pyplot as plt
 import pytest
 
-from hex_control.grinding.job_plots import strut_figure
 from hex_control.grinding.job_report import (
     JobRecord,
     job_statistics,
@@ -23,6 +21,10 @@ from hex_control.grinding.job_report import (
     ([], ["strut_0", "strut_1", "strut_2", "strut_3"]),  # a record without names
 ])
 def test_strut_plot_labels_each_joint_by_the_plants_name(names, labels):
+    import matplotlib.pyplot as plt  # not at every worker's collection: 0.35 s
+
+    from hex_control.grinding.job_plots import strut_figure
+
     record = JobRecord(struts=[(0.0, 0.01, 0.02, 0.03, 0.10), (0.05, 0.011, 0.021, 0.031, 0.11)], strut_names=names)
     fig = strut_figure(record)
     try:
