@@ -20,7 +20,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import control
 import numpy as np
 
 from hex_control.control.force_law import PIForceLaw, roll_off_filter
@@ -55,6 +54,8 @@ def linear_figures(gain_scale: float, rate_hz: float, roll_off: RollOff = RollOf
                    parameters: ForceTableParameters = ForceTableParameters(),
                    band_hz: tuple[float, float] = (20.0, 50.0)) -> LoopFigures:
     """Frequency-domain figures of the sampled loop at one gain scale."""
+    import control  # here alone: python-control and the matplotlib it imports take 1 s to load
+
     period = 1.0 / rate_hz
     num, den = position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz)
     w = 2 * math.pi * parameters.sensor_cutoff_hz
