@@ -379,7 +379,7 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
     stand while the stop goes out, and where it stands is read, not assumed:
     1. on the plant's first wrench of a pass that grinds, the force controller is stopped
        (SIGSTOP). The plant says its unanswered state once more after a quarter of
-       lockstep_timeout_s (2 s here): that repeat's stamp is where the clock stands. This
+       lockstep_timeout_s (5 s here): that repeat's stamp is where the clock stands. This
        process hears the plant late on a busy machine (five workers on two cores: the
        controller was stopped after pass 1 had ended); a clock standing outside the pass's
        grinding lets the controller go on, and the next pass is tried.
@@ -387,8 +387,11 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
        for more than 1-2 s gets what was sent to it meanwhile only at the sender's next
        heartbeat, 3 s later (Fast DDS's shared memory port is found dead, the reliable
        writer resends), and a stop held up so long let pass 1 grind to its end at 8x real
-       time, twice at -n 5. The plant goes on once the controller has counted the stop."""
-    a = attack(plant_overrides={"lockstep_timeout_s": 8.0})  # the plant waits out the stopped controller
+       time, twice at -n 5. The plant goes on once the controller has counted the stop.
+    The plant must not give up on the controller meanwhile: it counts its silence in wall time,
+    its own stop included, and then may wait 3 s more for what was sent to it while stopped
+    (8 s of lockstep_timeout_s ran out once in a fresh clone's suite)."""
+    a = attack(plant_overrides={"lockstep_timeout_s": 20.0})
     stops = []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)
     controller, plant = (a.session.graph.processes[name] for name in ("force_controller", "plant"))
