@@ -13,7 +13,7 @@ TF2_SOURCES := $(wildcard msg_defs/tf2_msgs/msg/*.msg) msg_defs/tf2_msgs/CMakeLi
 .PHONY: setup demo test lint bench lock clean
 
 # the byte code and the two interface builds need only the venv and not each other: run side by
-# side (a fresh set-up on two cores: 47 s, where one after the other took 54 s)
+# side (a fresh set-up on two cores: 45 s, where one after the other took 54 s)
 setup:
 	@$(MAKE) --no-print-directory -q $(VENV)/.stamp-package || $(MAKE) --no-print-directory -j3 $(VENV)/.stamp-package
 
@@ -30,8 +30,8 @@ $(VENV)/.stamp-deps: requirements.lock
 # 1b. its byte code, written once (where PYTHONDONTWRITEBYTECODE is set, every process compiles
 #     what it imports, and a suite starts some 300), the packages' own tests left out (a quarter
 #     of the files, imported by nothing here): 10 s and 19 CPU s, against 18 s and 27 CPU s for all;
-#     and Ray's libraries that a campaign's tasks never import (2.4 CPU s). Niced: the interface
-#     build of hex_control_msgs is the set-up's longest path, this fills in
+#     and Ray's libraries that a campaign's tasks never import (2.4 CPU s). Niced, as it only
+#     fills in beside the build of hex_control_msgs, the set-up's longest path
 NEVER_IMPORTED := '/tests?/|/ray/(rllib|data|serve|tune|train|llm|air)/'
 $(VENV)/.stamp-bytecode: $(VENV)/.stamp-deps
 	nice -n 10 $(PY) -m compileall -q -j0 -x $(NEVER_IMPORTED) \
@@ -53,10 +53,12 @@ $(VENV)/.stamp-tf2-msgs: $(VENV)/.stamp-deps $(TF2_SOURCES)
 
 #    hex_control_msgs by colcon, in the workspace test_colcon_build.py builds, with its command
 #    (scripts/colcon_workspace.py), then installed from that build into the venv: the test's
-#    build of it is then up to date (on a fresh clone it had built it again: 42 CPU s)
+#    build of it is then up to date (on a fresh clone it had built it again: 42 CPU s). That
+#    workspace is build/colcon_ws whatever BUILD says (the test's fixed place)
 $(VENV)/.stamp-msgs: $(VENV)/.stamp-deps $(MSG_SOURCES) scripts/colcon_workspace.py
 	mkdir -p $(BUILD)
-	$(PY) scripts/colcon_workspace.py interfaces $(VENV) > $(BUILD)/msg_defs.log 2>&1 || (tail -50 $(BUILD)/msg_defs.log; exit 1)
+	$(PY) scripts/colcon_workspace.py interfaces $(VENV) > $(BUILD)/hex_control_msgs.log 2>&1 \
+	  || (tail -50 $(BUILD)/hex_control_msgs.log; exit 1)
 	$(PY) -c "import hex_control_msgs.msg, hex_control_msgs.srv, hex_control_msgs.action"
 	touch $@
 
@@ -94,4 +96,4 @@ lock:
 	$(PYTHON) scripts/freeze_lock.py $(BUILD)/lock-venv/bin/python > requirements.lock
 
 clean:
-	rm -rf $(VENV) $(BUILD)
+	rm -rf $(VENV) $(BUILD) build/colcon_ws

@@ -1,10 +1,12 @@
-"""The colcon workspace of this checkout, build/colcon_ws: the repository and the README's
-link to its interface package under src/, built with colcon against the venv as underlay.
+"""The colcon workspace of this checkout, build/colcon_ws (whatever the Makefile's BUILD): the
+repository and the link to its interface package under src/ (docs/nodes.md), built with
+colcon against the venv as underlay.
 
 `make setup` builds hex_control_msgs here and installs that build into the venv as well
 (``python scripts/colcon_workspace.py interfaces PREFIX``); test_colcon_build.py builds both
 packages here with the same command, so its build of the interface package is up to date.
-(colcon configures a CMake package again only when its arguments change: keep them here.)
+(colcon configures a CMake package again when its arguments differ from its last build's,
+build/<package>/cmake_args.last: they are made here alone, from the venv's own paths.)
 """
 
 from __future__ import annotations
@@ -17,14 +19,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 WORKSPACE = ROOT / "build/colcon_ws"
 INTERFACES = "hex_control_msgs"
-#: the interface package's C and Python parts only, as the venv's build (HEX_PYTHON_ONLY:
-#: the C++ generators, which nothing here loads, cost 33 of a full build's 75 CPU s)
-CMAKE_ARGS = ("-DBUILD_TESTING=OFF", "-DHEX_PYTHON_ONLY=ON", f"-DPython3_EXECUTABLE={sys.executable}")
+#: the interface package's C and Python parts only (HEX_PYTHON_ONLY: the C++ generators, which
+#: nothing here loads, cost 33 of a full build's 75 CPU s); the venv's python by one name
+#: (sys.executable is .../python3 when the caller was started so)
+CMAKE_ARGS = ("-DBUILD_TESTING=OFF", "-DHEX_PYTHON_ONLY=ON", f"-DPython3_EXECUTABLE={Path(sys.prefix) / 'bin/python'}")
 
 
 def workspace(path: Path = WORKSPACE, *, with_link: bool = True) -> Path:
-    """A workspace holding the repository under src/ and, with ``with_link``, the README's
-    link to its interface package beside it (colcon's crawl does not descend into a package)."""
+    """A workspace holding the repository under src/ and, with ``with_link``, the link to its
+    interface package beside it (colcon's crawl does not descend into a package)."""
     (path / "src").mkdir(parents=True, exist_ok=True)
     for name, target in (("hex_control", ROOT), (INTERFACES, Path("hex_control/msg_defs"))):
         link = path / "src" / name
@@ -50,7 +53,7 @@ def colcon(path: Path, *arguments: str, timeout_s: float = 900.0, capture: bool 
                           env=env, capture_output=capture, text=True, timeout=timeout_s)
 
 
-def build(path: Path = WORKSPACE, *packages: str, capture: bool = True) -> subprocess.CompletedProcess:
+def build(*packages: str, path: Path = WORKSPACE, capture: bool = True) -> subprocess.CompletedProcess:
     """``colcon build`` of ``packages`` (all it finds if none) with :data:`CMAKE_ARGS`."""
     selection = ("--packages-select", *packages) if packages else ()
     return colcon(path, "build", *selection, "--cmake-args", *CMAKE_ARGS, capture=capture)
@@ -61,7 +64,7 @@ def install_interfaces(prefix: Path, path: Path = WORKSPACE) -> None:
     as well (nothing in it depends on the install prefix given when it was configured: no
     RUNPATH, relative CMake config; only its unused share/<pkg>/local_setup.sh names the
     workspace's install as its default prefix)."""
-    if build(workspace(path), INTERFACES, capture=False).returncode != 0:
+    if build(INTERFACES, path=workspace(path), capture=False).returncode != 0:
         sys.exit(f"colcon build of {INTERFACES} failed (its log: {path / 'log/latest_build'})")
     subprocess.run(["cmake", "--install", str(path / "build" / INTERFACES), "--prefix", str(prefix)], check=True)
 

@@ -4,8 +4,8 @@ imports, so `rosdep install --from-paths src` installs them.
 
 colcon's crawl (colcon_recursive_crawl: a directory identified as a package is not descended
 into) stops at the repository's root, the package hex_control, so the interface package in
-msg_defs/ is found only through a link beside the repository in the workspace's src/ (the
-README's set-up). The workspace of these tests, build/colcon_ws, is the one `make setup`
+msg_defs/ is found only through a link beside the repository in the workspace's src/
+(docs/nodes.md). The workspace of these tests, build/colcon_ws, is the one `make setup`
 builds the interface package in before installing it into the venv (the command of both is
 scripts/colcon_workspace.py): colcon finds it built and rebuilds only what changed, as it does
 for a user (a first build of hex_control_msgs takes about 30 s and 42 CPU s)."""
@@ -60,14 +60,14 @@ def test_package_xml_declares_every_import():
     assert {"ament_index_python", "rclpy", "hex_control_msgs", "mcap-ros2-support"} <= keys
 
 
-def _script():
+def _load_colcon_workspace():
     spec = importlib.util.spec_from_file_location("colcon_workspace", ROOT / "scripts/colcon_workspace.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
 
 
-colcon_workspace = _script()
+colcon_workspace = _load_colcon_workspace()
 
 
 def _packages(workspace: Path) -> dict[str, str]:
@@ -104,11 +104,12 @@ def test_colcon_builds_both_packages_and_the_nodes_start_from_setup_bash(tmp_pat
     workspace = colcon_workspace.workspace()
     cache = workspace / "build/hex_control_msgs/CMakeCache.txt"
     configured = cache.stat().st_mtime_ns if cache.exists() else None
-    result = colcon_workspace.build(workspace)
+    result = colcon_workspace.build(path=workspace)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "2 packages finished" in result.stdout
     assert configured is not None and cache.stat().st_mtime_ns == configured, \
-        "colcon configured hex_control_msgs again: not built by make setup, or with other arguments"
+        "colcon configured hex_control_msgs again: not built by make setup, with other arguments " \
+        "(build/colcon_ws/build/hex_control_msgs/cmake_args.last), or msg_defs changed since make setup"
     install = workspace / "install"
     assert (install / "setup.bash").exists() and (install / "hex_control/share/hex_control/package.bash").exists()
     executables = {p.name for p in (install / "hex_control/lib/hex_control").iterdir()}

@@ -12,7 +12,7 @@ def test_difference_equation_is_the_tustin_discretization():
     """Eq. 7.6 realizes python-control's Tustin discretization of K_p + K_I/s: its impulse
     response equals the reference transfer function's difference equation to 1e-12, and the
     step responses match."""
-    import control  # python-control imports matplotlib: 1.4 s, not at every worker's collection
+    import control  # here, not at every worker's collection: 1 s with the matplotlib it loads
     kp, ki, t = 0.004, 0.03, 1 / 60
     reference = control.sample_system(control.tf([kp, ki], [1, 0]), t, method="tustin")
     num, den = (np.squeeze(v) for v in control.tfdata(reference))

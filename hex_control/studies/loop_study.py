@@ -54,7 +54,7 @@ def linear_figures(gain_scale: float, rate_hz: float, roll_off: RollOff = RollOf
                    parameters: ForceTableParameters = ForceTableParameters(),
                    band_hz: tuple[float, float] = (20.0, 50.0)) -> LoopFigures:
     """Frequency-domain figures of the sampled loop at one gain scale."""
-    import control  # here alone: python-control and the matplotlib it imports take 1 s to load
+    import control  # here alone: 1 s with the matplotlib it loads
 
     period = 1.0 / rate_hz
     num, den = position_loop(parameters.position_loop, parameters.pole1_hz, parameters.pole2_hz)

@@ -1,12 +1,12 @@
-# What both interface packages here (hex_control_msgs, and tf2_msgs for the venv) need
-# before rosidl_generate_interfaces.
+# What both interface packages here (hex_control_msgs, and tf2_msgs for the venv) call before
+# rosidl_generate_interfaces, after find_package(rosidl_default_generators).
 
 # Wheel quirk (ROS 2 from PyPI): the exported *__rosidl_generator_py targets of the
 # dependency packages list the wheel builder's include directory
 # (/opt/python/cp311-cp311/include/python3.11), which does not exist here. CMake
 # refuses targets with missing include directories, so drop the missing entries.
 # In a normal ROS 2 install every entry exists and this changes nothing.
-macro(hex_drop_missing_wheel_includes)
+function(hex_drop_missing_wheel_includes)
   foreach(dep ${ARGN})
     set(target "${dep}::${dep}__rosidl_generator_py")
     if(TARGET ${target})
@@ -22,18 +22,25 @@ macro(hex_drop_missing_wheel_includes)
       endif()
     endif()
   endforeach()
-endmacro()
+endfunction()
 
 # Python only (the Makefile's venv builds, and test_colcon_build's colcon build): the C++
 # generators and type supports, which nothing here loads, left out; a user's colcon or ament
-# build leaves this OFF and gets them all.
-option(HEX_PYTHON_ONLY "generate only what rclpy loads (C and Python)" OFF)
-if(HEX_PYTHON_ONLY)
+# build leaves HEX_PYTHON_ONLY OFF and gets them all. The generators are those that
+# find_package(rosidl_default_generators) registered: call it after that.
+function(hex_python_only)
+  option(HEX_PYTHON_ONLY "generate only what rclpy loads (C and Python)" OFF)
+  if(NOT HEX_PYTHON_ONLY)
+    return()
+  endif()
+  if(NOT AMENT_EXTENSIONS_rosidl_generate_idl_interfaces)
+    message(FATAL_ERROR "hex_python_only() before find_package(rosidl_default_generators)")
+  endif()
   set(python_only "")
   foreach(extension ${AMENT_EXTENSIONS_rosidl_generate_idl_interfaces})
     if(NOT extension MATCHES "^rosidl_(generator_cpp|typesupport_cpp|typesupport_fastrtps_cpp|typesupport_introspection_cpp):")
       list(APPEND python_only "${extension}")
     endif()
   endforeach()
-  set(AMENT_EXTENSIONS_rosidl_generate_idl_interfaces "${python_only}")
-endif()
+  set(AMENT_EXTENSIONS_rosidl_generate_idl_interfaces "${python_only}" PARENT_SCOPE)
+endfunction()
