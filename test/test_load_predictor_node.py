@@ -1,6 +1,7 @@
 """Node load_predictor over real ROS 2 transport (seed 000 part 2, eqs 6.6-6.7)."""
 
 import math
+import signal
 import subprocess
 import sys
 import threading
@@ -313,11 +314,18 @@ def test_topic_tools_against_the_live_predictor(ros, live_predictor, ros_env):
     assert rates[-1][1] == pytest.approx(published_hz, rel=0.15), (published_hz, reports)
 
     predictions = ros.collect(LoadPrediction, "/live/load_predictor/prediction", 200, publishers=1)
-    pub = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: 1234.5}",
-                 "--times", "3", "--rate", "10", "--wait", "15")
-    assert pub.returncode == 0 and "no subscriber" not in pub.stderr, pub.stdout + pub.stderr
-    wait_until(lambda: sum(m.measurement == 1234.5 for m in list(predictions)) == 3, 10.0,
-               what="the three published values to reach the predictor")
+    # the 200 Hz source held meanwhile: the predictor's input keeps its last 100 samples, and
+    # behind on a loaded machine it dropped one of the three among the source's (a fresh clone)
+    source = live_predictor[1].process
+    source.send_signal(signal.SIGSTOP)
+    try:
+        pub = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: 1234.5}",
+                     "--times", "3", "--rate", "10", "--wait", "15")
+        assert pub.returncode == 0 and "no subscriber" not in pub.stderr, pub.stdout + pub.stderr
+        wait_until(lambda: sum(m.measurement == 1234.5 for m in list(predictions)) == 3, 10.0,
+                   what="the three published values to reach the predictor")
+    finally:
+        source.send_signal(signal.SIGCONT)
     bad = hexctl(ros_env, "topic", "pub", "/live/load", "std_msgs/msg/Float64", "{data: high}")
     assert bad.returncode == 2 and "needs a number" in bad.stderr
 
