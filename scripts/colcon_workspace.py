@@ -38,9 +38,10 @@ def workspace(path: Path = WORKSPACE, *, with_link: bool = True) -> Path:
     return path
 
 
-def colcon(path: Path, *arguments: str, timeout_s: float = 900.0, capture: bool = True) -> subprocess.CompletedProcess:
-    """``colcon ARGUMENTS`` in the workspace at ``path``, the venv (this interpreter's prefix:
-    the ROS 2 wheels, tf2_msgs) its only underlay."""
+def build(*packages: str, path: Path = WORKSPACE, capture: bool = True) -> subprocess.CompletedProcess:
+    """``colcon build`` of ``packages`` (all it finds if none) with :data:`CMAKE_ARGS` in the
+    workspace at ``path``, the venv (this interpreter's prefix: the ROS 2 wheels, tf2_msgs) its
+    only underlay."""
     venv = Path(sys.prefix)
     env = dict(os.environ, AMENT_PREFIX_PATH=str(venv), CMAKE_PREFIX_PATH=str(venv))
     env.pop("COLCON_PREFIX_PATH", None)
@@ -49,14 +50,10 @@ def colcon(path: Path, *arguments: str, timeout_s: float = 900.0, capture: bool 
     # the core count, so -l built the interface package one file at a time (222 s at load 10);
     # a job per core, whatever the load
     env["MAKEFLAGS"] = f"-j{os.cpu_count() or 2}"
-    return subprocess.run([str(venv / "bin/colcon"), "--log-base", str(path / "log"), *arguments], cwd=path,
-                          env=env, capture_output=capture, text=True, timeout=timeout_s)
-
-
-def build(*packages: str, path: Path = WORKSPACE, capture: bool = True) -> subprocess.CompletedProcess:
-    """``colcon build`` of ``packages`` (all it finds if none) with :data:`CMAKE_ARGS`."""
     selection = ("--packages-select", *packages) if packages else ()
-    return colcon(path, "build", *selection, "--cmake-args", *CMAKE_ARGS, capture=capture)
+    return subprocess.run([str(venv / "bin/colcon"), "--log-base", str(path / "log"), "build", *selection,
+                           "--cmake-args", *CMAKE_ARGS], cwd=path, env=env, capture_output=capture, text=True,
+                          timeout=900)
 
 
 def install_interfaces(prefix: Path, path: Path = WORKSPACE) -> None:

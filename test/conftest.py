@@ -28,6 +28,16 @@ from ros_harness import NodeProcess, RosHarness, run_domain_id  # noqa: E402
 DOMAIN_ID = run_domain_id()
 
 
+def load_script(name: str):
+    """The module of ``scripts/<name>.py`` (the scripts are not a package)."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).resolve().parent.parent / f"scripts/{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 @pytest.fixture(scope="session")
 def ros_env():
     """Environment for subprocess nodes: this run's domain, discovery on localhost only."""

@@ -11,13 +11,13 @@ scripts/colcon_workspace.py): colcon finds it built and rebuilds only what chang
 for a user (a first build of hex_control_msgs takes about 30 s and 42 CPU s)."""
 
 import ast
-import importlib.util
 import os
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from conftest import load_script
 from geometry_msgs.msg import WrenchStamped
 
 from hex_control_msgs.msg import KinematicsErrorCode as Code
@@ -60,14 +60,7 @@ def test_package_xml_declares_every_import():
     assert {"ament_index_python", "rclpy", "hex_control_msgs", "mcap-ros2-support"} <= keys
 
 
-def _load_colcon_workspace():
-    spec = importlib.util.spec_from_file_location("colcon_workspace", ROOT / "scripts/colcon_workspace.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-colcon_workspace = _load_colcon_workspace()
+colcon_workspace = load_script("colcon_workspace")
 
 
 def _packages(workspace: Path) -> dict[str, str]:

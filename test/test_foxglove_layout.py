@@ -2,25 +2,19 @@
 scripts/foxglove_layout.py builds with the foxglove-sdk's layout types, and shows only
 topics that hexctl view serves (the recording has the ROS topics of the same names)."""
 
-import importlib.util
 import json
 import re
 from pathlib import Path
+
+from conftest import load_script
 
 from hex_control.ros.app.foxglove_view import CHANNEL_TOPICS
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def _script():
-    spec = importlib.util.spec_from_file_location("foxglove_layout", ROOT / "scripts/foxglove_layout.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def test_the_shipped_layout_is_the_scripts_and_names_served_topics():
-    script = _script()
+    script = load_script("foxglove_layout")
     shipped = (ROOT / "config/foxglove/hex_control.json").read_text()
     assert shipped == script.layout_text(), "run scripts/foxglove_layout.py"
     layout = json.loads(shipped)
