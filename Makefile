@@ -20,13 +20,18 @@ setup:
 	@$(MAKE) --no-print-directory -q $(SETUP_STAMPS) || $(MAKE) --no-print-directory -j3 $(SETUP_STAMPS)
 
 # 1. virtualenv with the pinned closure (ROS 2 Kilted wheels included): by uv, in a few seconds
-#    where pip takes 70 s on a cold cache (the CI's set-up); by pip if uv cannot
+#    where pip takes 70 s on a cold cache (the CI's set-up); by pip if uv cannot. The venv is
+#    made without pip and uv puts in the pinned one (0.4 s, where the venv's ensurepip took 3.7)
 UV_VERSION := 0.13.9
+PIP_VERSION := 23.2.1
+UV := $(BUILD)/uv-$(UV_VERSION)/bin/uv
 $(VENV)/.stamp-deps: requirements.lock
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
-	($(PY) -m pip install --quiet --disable-pip-version-check uv==$(UV_VERSION) && \
-	  $(VENV)/bin/uv pip install --quiet --python $(PY) -r requirements.lock) || \
-	  $(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock
+	test -x $(PY) || $(PYTHON) -m venv --without-pip $(VENV)
+	((test -x $(UV) || $(PYTHON) -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
+	    --target $(BUILD)/uv-$(UV_VERSION) uv==$(UV_VERSION)) && \
+	  $(UV) pip install --quiet --python $(PY) -r requirements.lock pip==$(PIP_VERSION)) || \
+	  (($(PY) -m pip --version > /dev/null 2>&1 || $(PY) -m ensurepip --default-pip > /dev/null) && \
+	   $(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock)
 	touch $@
 
 # 1b. its byte code, written once (where PYTHONDONTWRITEBYTECODE is set, every process compiles
