@@ -23,7 +23,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from ros_harness import NodeProcess, RosHarness, run_domain_id  # noqa: E402
+from ros_harness import NodeProcess, RosHarness, remove_stale_fastdds_shm, run_domain_id  # noqa: E402
 
 DOMAIN_ID = run_domain_id()
 
@@ -145,3 +145,12 @@ def pytest_runtest_makereport(item, call):
     if report.when == "call" and report.failed:
         item.call_failed = True
     return report
+
+
+def pytest_sessionfinish(session):
+    """Once, after every worker has ended (xdist's controller, or a run without workers): the
+    Fast DDS shared-memory files that the run's killed processes left behind, removed (some
+    250 files a run; what a live process holds stays)."""
+    if not hasattr(session.config, "workerinput"):
+        remove_stale_fastdds_shm()
+
