@@ -192,20 +192,25 @@ class NodeProcess:
 SHM_DIR = Path("/dev/shm")
 
 
-def remove_stale_fastdds_shm() -> int | None:
-    """Remove the Fast DDS shared-memory files that no live process holds (its segments and
-    ports each come with a lock file its owner holds while it lives): Fast DDS's own `fastdds
-    shm clean`, whose cleaner is loaded alone (its CLI imports psutil for its other verbs).
-    The files removed, or None where the venv has no such tool. The suite kills nodes on
-    purpose, and each left its files: 3.4 GB in a day of runs on one host."""
+def remove_stale_fastdds_shm(folder: Path = SHM_DIR) -> int | None:
+    """Remove the Fast DDS shared-memory files in ``folder`` that no live process holds (its
+    segments and ports each come with a lock file its owner holds while it lives): Fast DDS's
+    own `fastdds shm clean`, whose cleaner is loaded alone (its CLI imports psutil for its
+    other verbs). The files removed, or None where the venv has no such tool. The suite kills
+    nodes on purpose, and each left its files: 3.4 GB in a day of runs on one host. Not while
+    the suite's nodes run: a file is made a moment before its lock is taken."""
     tool = Path(sys.prefix) / "tools/fastdds/shm/clean.py"
-    if not tool.is_file() or not SHM_DIR.is_dir():
+    if not tool.is_file() or not folder.is_dir():
         return None
     spec = importlib.util.spec_from_file_location("fastdds_shm_clean", tool)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    before = sum(1 for _ in SHM_DIR.iterdir())
-    with contextlib.redirect_stdout(io.StringIO()):
-        module.Clean().run(False)
-    return before - sum(1 for _ in SHM_DIR.iterdir())
 
+    class FolderClean(module.Clean):
+        def _Clean__shm_dir(self):  # the cleaner's one place for the files (name-mangled)
+            return folder
+
+    before = sum(1 for _ in folder.iterdir())
+    with contextlib.redirect_stdout(io.StringIO()):
+        FolderClean().run(False)
+    return before - sum(1 for _ in folder.iterdir())
