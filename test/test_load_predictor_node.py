@@ -23,7 +23,7 @@ from hex_control.estimation.drift import DriftingLoadPredictor
 from hex_control.estimation.kalman import steady_state_variance
 from hex_control.ros.nodes.load_predictor import LoadPredictorNode
 from hex_control_msgs.msg import LoadPrediction
-from ros_harness import NodeProcess, RosHarness, run_domain_id, wait_until
+from ros_harness import NodeProcess, RosHarness, run_domain_id, wait_for_count, wait_until
 
 MODEL = GaussMarkovModel(0.95, 0.8, 1.5)
 
@@ -165,7 +165,9 @@ def test_samples_held_for_an_identification_all_come_out_in_order(ros, monkeypat
                    what="the node to take the samples")
     assert node.core.predictor.sample_count == 69 and len(node.core.held) == 531  # due at sample 70
     release.set()
-    wait_until(lambda: len(predictions) >= 600, 20.0, what="the held predictions")
+    # then some 26 identifications in a chain, each adopted before the samples after it (0.15 s
+    # each quiet; 20 s in all were once not enough on a slow, loaded machine)
+    wait_for_count(lambda: len(predictions), 600, 20.0, what="the held predictions")
     assert [m.sample_count for m in predictions] == list(range(1, 601))
     assert [m.measurement for m in predictions] == [float(v) for v in values]
     assert node._publisher.qos_profile.depth == predictor_core.MAX_HELD_SAMPLES + 1
