@@ -155,6 +155,41 @@ def test_a_lost_answer_is_asked_for_again_before_the_plant_runs_free():
     assert events.counts == {"measurements_resent": 2, "lockstep_timeouts": 1} and core.gate.free_running
 
 
+
+def test_the_plants_own_stand_is_not_the_controllers_silence_but_silence_still_times_out():
+    """The watchdog ticks every quarter of the timeout. A tick late by more than a tick means
+    the plant itself stood (stopped, swapped out): that time is set aside, and the answer sent
+    meanwhile steps the loop when it comes. A controller silent tick after tick still runs the
+    plant free after the whole timeout."""
+    core, outputs, events, clock = make_core()
+    answer(core)
+    core.watchdog_tick(TIMEOUT)
+    clock.now += 3 * TIMEOUT  # the plant stopped for three timeouts
+    assert core.watchdog_tick(TIMEOUT) is False and events.counts["plant_stalls"] == 1
+    assert "lockstep_timeouts" not in events.counts
+    answer(core)  # what the controller had sent comes
+    assert outputs.states[-1] == pytest.approx(0.01) and not core.gate.free_running
+    for _ in range(3):  # now the controller is silent, the plant on time
+        clock.now += TIMEOUT / 4
+        assert core.watchdog_tick(TIMEOUT) is False
+    clock.now += TIMEOUT / 4
+    assert core.watchdog_tick(TIMEOUT) is True and events.counts["lockstep_timeouts"] == 1
+    assert events.counts["plant_stalls"] == 1
+
+
+def test_a_stand_before_the_wait_began_leaves_the_wait_whole():
+    """Only the part of the plant's stand after the state went out is set aside: a wait that
+    began after the stand is the controller's from its start."""
+    core, outputs, events, clock = make_core()
+    answer(core)
+    core.watchdog_tick(TIMEOUT)
+    clock.now += 3 * TIMEOUT  # stood; on going on, the answer came first and a new state went out
+    answer(core)
+    clock.now += 0.9 * TIMEOUT
+    assert core.watchdog_tick(TIMEOUT) is False  # the stall's tick: 0.9 of the timeout waited
+    clock.now += 0.1 * TIMEOUT
+    assert core.watchdog_tick(TIMEOUT) is True and events.counts["lockstep_timeouts"] == 1
+
 def test_lockstep_steps_only_on_the_answer_to_the_state_it_waits_on():
     core, outputs, events, _ = make_core()
     assert outputs.states == [0.0]

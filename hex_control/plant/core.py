@@ -133,6 +133,7 @@ class PlantCore:
         them (None: ``check_struts`` row by row); ``clock()`` is the wall time (s)."""
         self.settings, self.sim, self.axis_limits = settings, sim, axis_limits
         self.outputs, self.events, self.clock = outputs, events, clock
+        self._last_watchdog_s: float | None = None  # wall s of the watchdog's last tick
         self.strut_names, self.monitor = list(strut_names), monitor
         self.check_struts = check_struts or (lambda lengths_m: None)
         self.check_trajectory = check_trajectory or self._check_rows
@@ -247,6 +248,21 @@ class PlantCore:
         self._lockstep_step()
 
     # -- timers ----------------------------------------------------------------------------
+    def watchdog_tick(self, timeout_s: float) -> bool:
+        """The node's watchdog timer, every quarter of ``timeout_s`` of wall time:
+        :meth:`lockstep_watchdog`, less the time this plant itself stood. A tick more than a
+        tick late means the plant did not run (stopped, swapped out, its executor busy): the
+        controller's answer may have been sent meanwhile, and Fast DDS hands what was sent to a
+        process stopped for over 1-2 s on only at the writer's next heartbeat (docs/
+        known_problems.md), so that time is not counted as the controller's silence
+        (``plant_stalls``). A silent controller still times out: each tick counts one tick."""
+        now, tick = self.clock(), timeout_s / 4
+        if self._last_watchdog_s is not None and now - self._last_watchdog_s > 2 * tick:
+            self.gate.stalled(self._last_watchdog_s + tick, now)
+            self.events.count("plant_stalls")
+        self._last_watchdog_s = now
+        return self.lockstep_watchdog(timeout_s)
+
     def lockstep_watchdog(self, timeout_s: float) -> bool:
         """Every fraction of ``timeout_s`` (wall time): re-send an unanswered first state;
         after the first answer, say the waiting measurement once more when a quarter of the

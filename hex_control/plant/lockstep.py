@@ -106,6 +106,14 @@ class LockstepGate:
             self.timing = LoopTiming()
         return answered
 
+    def stalled(self, start_s: float, end_s: float) -> None:
+        """The plant itself stood from about ``start_s`` to ``end_s`` (stopped, swapped out,
+        its executor busy): a wait for the answer that began before is that much shorter. A
+        wait that began within the span began after the plant went on (it sent the state):
+        the controller's from its start."""
+        if self.waiting_since_s is not None and self.waiting_since_s < start_s:
+            self.waiting_since_s += end_s - start_s
+
     def timed_out(self, now_s: float, timeout_s: float) -> bool:
         """Has the last state waited ``timeout_s`` or more for its answer since its period
         was simulated?"""

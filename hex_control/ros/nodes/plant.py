@@ -120,7 +120,7 @@ class PlantNode(Node):
         return self.get_parameter(name).value
 
     def _watchdog(self) -> None:
-        if self.core.lockstep_watchdog(self.p("lockstep_timeout_s")) and self.free_run_timer.is_canceled():
+        if self.core.watchdog_tick(self.p("lockstep_timeout_s")) and self.free_run_timer.is_canceled():
             self.free_run_timer.reset()
 
     def _free_run(self) -> None:
