@@ -27,11 +27,12 @@ PIP_VERSION := 23.2.1
 UV := $(BUILD)/uv-$(UV_VERSION)/bin/uv
 $(VENV)/.stamp-deps: requirements.lock
 	test -x $(PY) || $(PYTHON) -m venv --without-pip $(VENV)
-	((test -x $(UV) || $(PYTHON) -m pip install --quiet --disable-pip-version-check --root-user-action=ignore \
-	    --target $(BUILD)/uv-$(UV_VERSION) uv==$(UV_VERSION)) && \
+	((test -x $(UV) || (rm -rf $(BUILD)/uv-$(UV_VERSION) && $(PYTHON) -m pip install --quiet \
+	    --disable-pip-version-check --root-user-action=ignore --target $(BUILD)/uv-$(UV_VERSION) uv==$(UV_VERSION))) && \
 	  $(UV) pip install --quiet --python $(PY) -r requirements.lock pip==$(PIP_VERSION)) || \
-	  (($(PY) -m pip --version > /dev/null 2>&1 || $(PY) -m ensurepip --default-pip > /dev/null) && \
-	   $(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock)
+	  (echo "set-up: no uv here; the closure goes in by pip (slower)" && \
+	   ($(PY) -m pip --version > /dev/null 2>&1 || $(PY) -m ensurepip --default-pip > /dev/null) && \
+	   $(PY) -m pip install --quiet --disable-pip-version-check -r requirements.lock pip==$(PIP_VERSION))
 	touch $@
 
 # 1b. its byte code, written once (where PYTHONDONTWRITEBYTECODE is set, every process compiles
@@ -47,7 +48,7 @@ $(VENV)/.stamp-bytecode: $(VENV)/.stamp-deps
 
 # 1c. the tests' byte code, their asserts rewritten as pytest does (scripts/test_bytecode.py):
 #     with PYTHONDONTWRITEBYTECODE set pytest writes none, and each of the four workers rewrote
-#     every test module (their start 13-14 s and 25 CPU s, with this 6 s and 10)
+#     every test module (their start 13-14 s and 25 CPU s, with this 6 s and 10 CPU s)
 $(VENV)/.stamp-test-bytecode: $(VENV)/.stamp-deps $(wildcard test/*.py) scripts/test_bytecode.py
 	nice -n 10 $(PY) scripts/test_bytecode.py test
 	touch $@

@@ -49,7 +49,7 @@ def write_rewritten(path: Path, rewrite) -> bool:
     tree = ast.parse(source, filename=str(path))
     rewrite.rewrite_asserts(tree, source, str(path), None)
     code = compile(tree, str(path), "exec", dont_inherit=True)
-    pyc.parent.mkdir(exist_ok=True)
+    pyc.parent.mkdir(parents=True, exist_ok=True)
     partial = pyc.with_name(f"{pyc.name}.{os.getpid()}")  # whole or not at all, as pytest writes it
     with open(partial, "wb") as file:
         rewrite._write_pyc_fp(file, source_hash, code)
@@ -61,7 +61,7 @@ def main(argv: list[str]) -> int:
     if len(argv) != 1 or not Path(argv[0]).is_dir():
         print("usage: test_bytecode.py TEST_FOLDER", file=sys.stderr)
         return 2
-    folder = Path(argv[0]).resolve()
+    folder = Path(argv[0]).absolute()  # as pytest names it (a prefix cache mirrors the path)
     tests = rewritten(folder)
     for helper in sorted(set(folder.glob("*.py")) - set(tests)):
         compileall.compile_file(str(helper), quiet=1)  # left as it is where up to date
@@ -73,7 +73,12 @@ def main(argv: list[str]) -> int:
     except (ImportError, AttributeError) as exc:
         print(f"test_bytecode: pytest's rewriting has moved ({exc}); its cache is left to pytest", file=sys.stderr)
         return 0
-    written = sum(write_rewritten(path, rewrite) for path in tests)
+    try:
+        written = sum(write_rewritten(path, rewrite) for path in tests)
+    except Exception as exc:  # noqa: BLE001 -- a changed private API: only the cache is lost
+        print(f"test_bytecode: pytest's rewriting failed here ({exc!r}); its cache is left to pytest",
+              file=sys.stderr)
+        return 0
     print(f"test_bytecode: {written} of {len(tests)} test modules rewritten")
     return 0
 

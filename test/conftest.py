@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import warnings
 from pathlib import Path
 
 # as in `make test` and the nodes (hex_control/ros/__init__.py): one OpenBLAS thread, since
@@ -152,5 +153,7 @@ def pytest_sessionfinish(session):
     Fast DDS shared-memory files that the run's killed processes left behind, removed (some
     250 files a run; what a live process holds stays)."""
     if not hasattr(session.config, "workerinput"):
-        remove_stale_fastdds_shm()
-
+        try:
+            remove_stale_fastdds_shm()
+        except Exception as exc:  # noqa: BLE001 -- the middleware's tool: a tidy-up, not a test
+            warnings.warn(f"Fast DDS shared memory not cleaned: {exc!r}", stacklevel=1)

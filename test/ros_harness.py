@@ -206,23 +206,32 @@ class NodeProcess:
 SHM_DIR = Path("/dev/shm")
 
 
-def remove_stale_fastdds_shm(folder: Path = SHM_DIR) -> int | None:
+def remove_stale_fastdds_shm(folder: Path = SHM_DIR, min_age_s: float = 60.0) -> int | None:
     """Remove the Fast DDS shared-memory files in ``folder`` that no live process holds (its
     segments and ports each come with a lock file its owner holds while it lives): Fast DDS's
     own `fastdds shm clean`, whose cleaner is loaded alone (its CLI imports psutil for its
-    other verbs). The files removed, or None where the venv has no such tool. The suite kills
-    nodes on purpose, and each left its files: 3.4 GB in a day of runs on one host. Not while
-    the suite's nodes run: a file is made a moment before its lock is taken."""
+    other verbs), on lock files older than ``min_age_s`` only: a file is made a moment before
+    its lock is taken, by this run's nodes or by any other Fast DDS program on the machine.
+    The files removed, or None where the venv has no such tool (or it has changed). The
+    suite kills nodes on purpose, and each left its files: 3.4 GB in a day of runs on one host."""
     tool = Path(sys.prefix) / "tools/fastdds/shm/clean.py"
     if not tool.is_file() or not folder.is_dir():
         return None
     spec = importlib.util.spec_from_file_location("fastdds_shm_clean", tool)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    cleaner = getattr(module, "Clean", None)
+    if not all(hasattr(cleaner, name) for name in ("run", "_Clean__shm_dir", "_Clean__list_dir")):
+        return None  # its one place for the files could no longer be given: not /dev/shm by surprise
 
-    class FolderClean(module.Clean):
-        def _Clean__shm_dir(self):  # the cleaner's one place for the files (name-mangled)
+    class FolderClean(cleaner):
+        def _Clean__shm_dir(self):  # the cleaner's place for the files and its listing (name-mangled)
             return folder
+
+        def _Clean__list_dir(self):
+            now = time.time()
+            return [path.name for path in folder.iterdir()
+                    if now - path.stat(follow_symlinks=False).st_mtime >= min_age_s]
 
     before = sum(1 for _ in folder.iterdir())
     with contextlib.redirect_stdout(io.StringIO()):

@@ -385,9 +385,10 @@ def test_a_cancel_mid_pass_retracts_and_ends_the_pass(attack):
        pass's grinding lets the controller go on, and the next pass is tried.
     2. the plant is stopped and the controller let go before the cancel, so that the stop
        reaches a running controller; the plant goes on once the controller has counted it.
-    The plant counts the controller's silence in wall time, its own stop set aside (since
-    2026-12-08: it once ran free here, on a slow fresh clone), and may then wait 3 s more for
-    what was sent to it while stopped: 20 s before it runs free."""
+    The plant counts the controller's silence in wall time: the controller's stop (5-10 s
+    until the repeat) and, after it, the controller's late hearing of what was sent to it while
+    stopped (3 s), the cancel and its stop; the plant's own stop is set aside (since
+    2026-12-08: it once ran free here, on a slow fresh clone). 20 s before it runs free."""
     a = attack(plant_overrides={"lockstep_timeout_s": 20.0})
     stops = []
     a.rogue.create_subscription(PassCommand, "grinding/pass_command", lambda m: m.stop and stops.append(m), LATCHED)

@@ -17,6 +17,7 @@ def test_a_dead_owners_segment_and_port_go_and_held_ones_stay(tmp_path):
     with open(tmp_path / names[3], "ab") as segment, open(tmp_path / names[8], "ab") as port:
         fcntl.flock(segment, fcntl.LOCK_EX)  # as a live participant holds its lock files
         fcntl.flock(port, fcntl.LOCK_SH)
-        assert remove_stale_fastdds_shm(tmp_path) == 5
+        assert remove_stale_fastdds_shm(tmp_path) == 0  # all made just now: perhaps not locked yet
+        assert remove_stale_fastdds_shm(tmp_path, min_age_s=0.0) == 5
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names[2:4] + names[7:])
     assert remove_stale_fastdds_shm(tmp_path / "absent") is None

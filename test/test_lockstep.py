@@ -177,6 +177,19 @@ def test_the_plants_own_stand_is_not_the_controllers_silence_but_silence_still_t
     assert events.counts["plant_stalls"] == 1
 
 
+def test_a_silent_controller_times_out_even_when_every_tick_comes_late():
+    """Each late tick sets aside all but one tick of its gap: a plant that stands between
+    all its ticks still runs free after about four of them when nobody answers."""
+    core, outputs, events, clock = make_core()
+    answer(core)
+    core.watchdog_tick(TIMEOUT)
+    free = []
+    for _ in range(6):
+        clock.now += 3 * TIMEOUT
+        free.append(core.watchdog_tick(TIMEOUT))
+    assert free == [False, False, False, True, True, True] and events.counts["lockstep_timeouts"] == 1
+
+
 def test_a_stand_before_the_wait_began_leaves_the_wait_whole():
     """Only the part of the plant's stand after the state went out is set aside: a wait that
     began after the stand is the controller's from its start."""

@@ -248,15 +248,20 @@ class PlantCore:
         self._lockstep_step()
 
     # -- timers ----------------------------------------------------------------------------
+    @staticmethod
+    def watchdog_period_s(timeout_s: float) -> float:
+        """The lock-step watchdog's tick (wall s): a quarter of ``lockstep_timeout_s``."""
+        return timeout_s / 4
+
     def watchdog_tick(self, timeout_s: float) -> bool:
-        """The node's watchdog timer, every quarter of ``timeout_s`` of wall time:
+        """The node's watchdog timer, every :meth:`watchdog_period_s` of wall time:
         :meth:`lockstep_watchdog`, less the time this plant itself stood. A tick more than a
-        tick late means the plant did not run (stopped, swapped out, its executor busy): the
+        tick late means the plant did not run for about that long (stopped, swapped out): the
         controller's answer may have been sent meanwhile, and Fast DDS hands what was sent to a
         process stopped for over 1-2 s on only at the writer's next heartbeat (docs/
         known_problems.md), so that time is not counted as the controller's silence
         (``plant_stalls``). A silent controller still times out: each tick counts one tick."""
-        now, tick = self.clock(), timeout_s / 4
+        now, tick = self.clock(), self.watchdog_period_s(timeout_s)
         if self._last_watchdog_s is not None and now - self._last_watchdog_s > 2 * tick:
             self.gate.stalled(self._last_watchdog_s + tick, now)
             self.events.count("plant_stalls")
@@ -275,7 +280,7 @@ class PlantCore:
 
     def _watch(self, timeout_s: float) -> None:
         gate, now = self.gate, self.clock()
-        if gate.started and not gate.resent and gate.timed_out(now, timeout_s / 4):
+        if gate.started and not gate.resent and gate.timed_out(now, self.watchdog_period_s(timeout_s)):
             gate.resent = True
             snapshot = self.sim.snapshot()
             self.outputs.measurement(snapshot.time_s, snapshot.measured_force_n)

@@ -46,7 +46,8 @@ function(hex_python_only)
 endfunction()
 
 # A unity build (CMAKE_UNITY_BUILD, as the Makefile's and test_colcon_build's colcon builds
-# configure it: the package's 122 C files in a dozen compiler runs, 46 -> 34 CPU s), after
+# configure it: the package's 122 C files in 31 compiler runs, 14 unity files and the 17
+# description sources; 46 -> 34 CPU s), after
 # rosidl_generate_interfaces: each message's type description source defines the same static
 # hashes of the types it uses, so those sources are compiled on their own.
 function(hex_unity_safe target_prefix)
@@ -57,7 +58,7 @@ function(hex_unity_safe target_prefix)
   get_target_property(sources ${target} SOURCES)
   foreach(source ${sources})
     if(source MATCHES "__description\\.c$")
-      set_source_files_properties(${source} TARGET_DIRECTORY ${target} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
+      set_source_files_properties(${source} PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)  # this directory's target
     endif()
   endforeach()
 endfunction()

@@ -112,7 +112,7 @@ class PlantNode(Node):
             self.create_timer(tick_s, self.core.realtime_tick)
         else:  # the free run's timer runs only while a step is due (else 200 idle wakeups/s)
             self.free_run_timer = self.create_timer(tick_s, self._free_run, autostart=False)
-            self.create_timer(p("lockstep_timeout_s") / 4, self._watchdog)
+            wall_timer(self, self.core.watchdog_period_s(p("lockstep_timeout_s")), self._watchdog)
         wall_timer(self, 1.0, self._report)
         self.core.publish_state()
 
