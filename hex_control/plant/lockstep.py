@@ -107,8 +107,8 @@ class LockstepGate:
         return answered
 
     def stalled(self, start_s: float, end_s: float) -> None:
-        """The plant itself stood from about ``start_s`` to ``end_s`` (stopped, swapped out,
-        its executor busy): a wait for the answer that began before is that much shorter. A
+        """The plant itself stood from about ``start_s`` to ``end_s`` (wall s; stopped,
+        swapped out): a wait for the answer that began before is that much shorter. A
         wait that began within the span began after the plant went on (it sent the state):
         the controller's from its start."""
         if self.waiting_since_s is not None and self.waiting_since_s < start_s:

@@ -47,9 +47,9 @@ endfunction()
 
 # A unity build (CMAKE_UNITY_BUILD, as the Makefile's and test_colcon_build's colcon builds
 # configure it: the package's 122 C files in 31 compiler runs, 14 unity files and the 17
-# description sources; 46 -> 34 CPU s), after
-# rosidl_generate_interfaces: each message's type description source defines the same static
-# hashes of the types it uses, so those sources are compiled on their own.
+# description sources; 46 -> 34 CPU s). Call after rosidl_generate_interfaces: each message's
+# type description source defines the same static hashes of the types it uses, so those
+# sources are compiled on their own.
 function(hex_unity_safe target_prefix)
   if(NOT CMAKE_UNITY_BUILD)
     return()
