@@ -1,6 +1,8 @@
 """The benchmark harness runs its cases and prints a ratio against an in-process baseline."""
 
+import os
 import re
+import types
 import warnings
 
 import pytest
@@ -113,3 +115,36 @@ def test_the_clocks_standing_time_is_the_wall_time_beyond_the_jobs_pace():
     assert standing_wall_s(arrivals, (0.0, 0.0), []) == pytest.approx(0.48, abs=1e-9)
     assert standing_wall_s(arrivals[:1], (0.0, 0.0), []) == 0.0  # no pace to judge by
     assert standing_wall_s([], (0.0, 0.0), [2.0]) == 0.0
+
+
+def test_a_graph_job_that_simulates_nothing_is_a_failure_with_the_nodes_logs(tmp_path, monkeypatch, capsys):
+    """A job whose loop never ran (a fresh clone once stood 300 s so) ends the benchmark with
+    GraphFailure and the nodes' last log lines, not a division by zero in its figures."""
+    from hex_control.bench.graph import run_graph_job
+    from hex_control.ros.app import grind_job
+
+    class Standing:
+        """A session whose plant never steps: the sim clock at 0 from the goal to the outcome."""
+
+        def __init__(self, *args, **kwargs):
+            self.graph = types.SimpleNamespace(processes={"plant": types.SimpleNamespace(pid=os.getpid())},
+                                               log_tail=lambda name, lines: f"{name}'s last lines")
+            self.observer = types.SimpleNamespace()
+            self.record = types.SimpleNamespace(force=[(0.0, 0.0)], results={})
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+        def start_job(self, deadline_s, reset_time_s):
+            pass
+
+        def wait_for_outcome(self, timeout_s):
+            return {"reason": "aborted", "passes": 0}
+
+    monkeypatch.setattr(grind_job, "JobSession", Standing)
+    with pytest.raises(grind_job.GraphFailure, match="simulated nothing"):
+        run_graph_job(tmp_path, "events", 60.0, 10.0, 7, reset_time_s=4.7, record=False)
+    assert "plant's last lines" in capsys.readouterr().out

@@ -108,6 +108,9 @@ def run_graph_job(output: Path, executor: str, bead_length_mm: float, deadline_s
         sim = (max(r["stamp_s"] for r in results) if results else session.record.force[-1][0]) - sim_start
         cpu = {name: cpu_s(p.pid) - cpu_start[name] for name, p in processes.items()}
         cpu["observer"] = own_cpu_s() - own_start
+        if sim <= 0:  # the loop never ran: no figure per simulated s (a fresh clone once stood 300 s so)
+            raise grind_job.GraphFailure(f"the job simulated nothing in {wall:.0f} s of wall time",
+                                         f"outcome {outcome}")
     standing = standing_wall_s(arrivals, (wall_start, sim_start), [r["stamp_s"] + PLAN_AHEAD_S for r in results])
     return {"outcome": outcome, "wall_s": wall, "sim_s": sim, "cpu_s": cpu, "standing_s": standing,
             "results": {k: (r["measured_cut_depth_mm"], r["duration_s"]) for k, r in session.record.results.items()}}
