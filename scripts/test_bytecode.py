@@ -30,21 +30,12 @@ def rewritten(folder: Path) -> list[Path]:
     return sorted(folder.glob("test_*.py")) + sorted(folder.glob("conftest.py"))
 
 
-def cache_current(pyc: Path, source_hash: bytes) -> bool:
-    try:
-        with open(pyc, "rb") as file:
-            header = file.read(16)
-    except OSError:
-        return False
-    return header[:4] == importlib.util.MAGIC_NUMBER and header[8:16] == source_hash[:8]
-
-
 def write_rewritten(path: Path, rewrite) -> bool:
     """pytest's cached pyc of ``path``; False if it was current already."""
     source = path.read_bytes()
     source_hash = importlib.util.source_hash(source)
     pyc = rewrite.get_cache_dir(path) / (path.name[:-3] + rewrite.PYC_TAIL)
-    if cache_current(pyc, source_hash):
+    if rewrite._read_pyc(path, pyc) is not None:  # pytest's own check: current, it takes it
         return False
     tree = ast.parse(source, filename=str(path))
     rewrite.rewrite_asserts(tree, source, str(path), None)
@@ -68,7 +59,7 @@ def main(argv: list[str]) -> int:
     try:
         from _pytest.assertion import rewrite
 
-        for name in ("rewrite_asserts", "get_cache_dir", "PYC_TAIL", "_write_pyc_fp"):
+        for name in ("rewrite_asserts", "get_cache_dir", "PYC_TAIL", "_read_pyc", "_write_pyc_fp"):
             getattr(rewrite, name)
     except (ImportError, AttributeError) as exc:
         print(f"test_bytecode: pytest's rewriting has moved ({exc}); its cache is left to pytest", file=sys.stderr)

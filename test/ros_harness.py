@@ -56,19 +56,16 @@ def wait_until(condition, timeout_s: float, interval_s: float = 0.02, what: str 
         time.sleep(interval_s)
 
 
-
-def wait_for_count(count, target: int, stall_s: float, interval_s: float = 0.02, what: str = "items") -> None:
-    """Poll ``count()`` until it reaches ``target``, for as long as it keeps rising: TimeoutError
-    only once it has stood still for ``stall_s``. For work whose pace is the machine's (a node
-    computing a chain of results): a loaded machine is slower, a stuck node stands still."""
-    last, since = count(), time.monotonic()
+def wait_for_count(count, target: int, stall_s: float, what: str = "items") -> None:
+    """:func:`wait_until` ``count()`` reaches ``target``, for as long as it keeps rising:
+    TimeoutError only once it has stood still for ``stall_s``. For work whose pace is the
+    machine's (a node computing a chain of results): a loaded machine is slower, a stuck node
+    stands still."""
+    last = count()
     while last < target:
-        time.sleep(interval_s)
-        now = count()
-        if now > last:
-            last, since = now, time.monotonic()
-        elif time.monotonic() - since > stall_s:
-            raise TimeoutError(f"{what}: {now} of {target}, none more for {stall_s:g} s")
+        last = wait_until(lambda: (n := count()) > last and n, stall_s,
+                          what=f"{what} beyond {last} of {target}")
+
 
 def diagnostics_value(diagnostics: list, node_name: str, key: str):
     """A node's latest value of a /diagnostics key (a counter or a value) among the collected
