@@ -1,6 +1,7 @@
 """One seed, one part (issue 19, DESIGN.md 4.1): the whole graph in lock-step, run twice
 with the same seed, once at the root on an idle machine and once in a cell's namespace
-with a CPU-burning process per core, gives bit-identical pass commands, measured cuts and
+on a loaded one (more tasks runnable than cores: CPU-burning processes fill what the rest
+of the machine leaves, cpu_load.py), gives bit-identical pass commands, measured cuts and
 final contours. (The namespace is issue 37 item 7: every node and parameter file lands in
 the cell, so its job is the root's; it had its own test and two jobs more, issue 39.)
 
@@ -11,15 +12,12 @@ while the planners plan, so the time a pass waits for is the pass planner's fixe
 start_delay_s, not however long the planning took on a busy machine."""
 
 import os
-import subprocess
-import sys
 
 import numpy as np
+from cpu_load import LoadedMachine
 from test_end_to_end import BEAD, RESET_TIME_S, assert_contact_when_planned
 
 from hex_control.ros.app.grind_job import JobSession
-
-BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end: pass\n"
 
 
 def _job(directory, seed: int, namespace: str = "") -> dict:
@@ -36,13 +34,9 @@ def _job(directory, seed: int, namespace: str = "") -> dict:
 
 def test_the_same_seed_gives_the_same_part_on_an_idle_and_a_loaded_machine(ros_env, tmp_path):
     idle = _job(tmp_path / "idle", seed=7)
-    burners = [subprocess.Popen([sys.executable, "-c", BURN]) for _ in range(os.cpu_count() or 2)]
-    try:
+    with LoadedMachine() as load:
         loaded = _job(tmp_path / "loaded", seed=7, namespace="/cell3")
-    finally:
-        for burner in burners:
-            burner.kill()
-            burner.wait()
+    assert load.runnable_mean > (os.cpu_count() or 2), load.runnable_mean  # some task waited for a CPU
     assert idle["outcome"]["passes"] >= 2
     # the predictor moved K1 after pass 0 (a namespaced predictor once ran with default
     # parameters on the root's results: K1 planned 10.0 every pass)
