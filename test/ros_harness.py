@@ -10,6 +10,7 @@ destroy nodes -> context.shutdown -> join the thread.
 from __future__ import annotations
 
 import contextlib
+import functools
 import importlib.util
 import io
 import os
@@ -26,7 +27,8 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import QoSProfile
 
-from hex_control.ros.app.graph import stop_hung
+from hex_control.ros.app.graph import graph_nodes, stop_hung
+from hex_control.ros.app.node_forks import NodeForks
 
 #: Fast DDS accepts domain ids 0..232; stay clear of the default 0 used interactively, and of
 #: 200..232, where the loop benchmark (hex_control/bench/loop.py) starts its own
@@ -169,19 +171,52 @@ class RosHarness:
         self._thread.join(timeout=5.0)
 
 
+def forked_node_module(command: list[str], env: dict) -> str | None:
+    """The graph's node module that ``command`` starts (``hex-plant ...``, ``python [-P] -m
+    hex_control.ros.nodes.plant ...``), to be forked as the graph forks it; None for any other
+    command, or with HEX_NODE_FORKS=0 (as for a graph)."""
+    if env.get("HEX_NODE_FORKS", "1") == "0":
+        return None
+    name = Path(command[0]).name
+    if name.startswith("hex-"):
+        module = f"hex_control.ros.nodes.{name[4:].replace('-', '_')}"
+    else:
+        module = next((command[k + 1] for k, arg in enumerate(command[:-1]) if arg == "-m"), None)
+    return module if module in graph_node_modules() else None
+
+
+@functools.cache
+def graph_node_modules() -> tuple[str, ...]:
+    """The node modules a graph's fork server imports (``NodeGraph.start``)."""
+    return tuple(sorted({spec.module_path for spec in graph_nodes(Path("jobs"))}))
+
+
 class NodeProcess:
-    """A node started as a real process, e.g. ``NodeProcess(['hex-load-predictor', ...])``."""
+    """A node started as a process of its own, e.g. ``NodeProcess(['hex-load-predictor', ...])``.
+
+    A node of the graph (:func:`forked_node_module`) is forked from the fork server its
+    worker's graphs use (``node_forks.py``), after its command line's arguments: the same
+    ``main()``, log, environment, signals and exit code, without the 0.6-0.8 CPU s of imports
+    that each start from the command line paid (some 70 starts a suite)."""
 
     def __init__(self, command: list[str], env: dict, log_path: Path):
+        self.log_path = log_path
+        self._log = None
+        module = forked_node_module(command, env)
+        if module is not None:
+            arguments = command[command.index(module) + 1:] if module in command else command[1:]
+            self._forks = NodeForks.shared(list(graph_node_modules()), env)
+            self.process = self._forks.start(module, arguments, env, log_path)
+            return
+        self._forks = None
         executable = Path(sys.executable).parent / command[0]
         if executable.exists():
             command = [str(executable), *command[1:]]
-        self.log_path = log_path
         self._log = open(log_path, "w")  # noqa: SIM115 - closed in stop()
         self.process = subprocess.Popen(command, env=env, stdout=self._log, stderr=subprocess.STDOUT)
 
     def output(self) -> str:
-        if not self._log.closed:
+        if self._log is not None and not self._log.closed:
             self._log.flush()
         return self.log_path.read_text()
 
@@ -195,7 +230,11 @@ class NodeProcess:
             if not dump:
                 self.process.send_signal(signal.SIGINT)
             stop_hung(self.process, 0.0 if dump else timeout_s)
-        self._log.close()
+        if self._log is not None:
+            self._log.close()
+        if self._forks is not None:
+            self._forks.release()
+            self._forks = None
         return self.process.returncode
 
 
