@@ -1,6 +1,7 @@
 """The node graph as processes (hex_control.ros.app.graph): a graph that does not start says
 where each node waits before it is stopped; a run's job directory is its own."""
 
+import sys
 from pathlib import Path
 
 import yaml
@@ -8,7 +9,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 
 from hex_control.config import config_file, node_parameters
 from hex_control.ros.app.graph import RESTART_PARTICIPANT_IDS, NodeGraph, graph_nodes
-from ros_harness import wait_until
+from hex_control.ros.app.node_forks import ForkedNode
+from ros_harness import NodeProcess, forked_node_module, wait_until
 
 
 def test_a_dump_writes_every_threads_traceback_into_the_nodes_log_and_the_node_runs_on(ros_env, ros, tmp_path):
@@ -91,6 +93,26 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, t
         finally:
             other.stop()
     assert second.poll() is not None
+
+
+def test_a_tests_node_is_forked_when_it_is_one_of_the_graphs():
+    python = sys.executable
+    assert forked_node_module(["hex-plant", "--ros-args"], {}) == "hex_control.ros.nodes.plant"
+    assert forked_node_module(["hex-load-predictor"], {}) == "hex_control.ros.nodes.load_predictor"
+    assert forked_node_module([python, "-P", "-m", "hex_control.ros.nodes.robot_state"], {}) \
+        == "hex_control.ros.nodes.robot_state"
+    assert forked_node_module(["hex-plant"], {"HEX_NODE_FORKS": "0"}) is None  # as a graph's
+    assert forked_node_module(["hex-synthetic-load"], {}) is None  # no graph runs it: the server lacks it
+    assert forked_node_module(["hexctl", "demo"], {}) is None
+    assert forked_node_module([python, "-m", "hex_control.cli", "view"], {}) is None
+
+
+def test_a_forked_test_node_takes_its_command_lines_arguments_and_stops_on_sigint(ros_env, tmp_path):
+    node = NodeProcess([sys.executable, "-P", "-m", "hex_control.ros.nodes.input_shaper", "--ros-args",
+                        "-r", "__node:=forked_shaper"], ros_env, tmp_path / "shaper.log")
+    assert isinstance(node.process, ForkedNode)
+    wait_until(lambda: "ready: /forked_shaper" in node.output(), 60.0, what="the node's ready line")
+    assert node.stop() == 0 and not node.alive()
 
 
 def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):
