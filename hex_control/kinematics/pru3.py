@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -183,22 +184,29 @@ class Pru3Geometry(JointPositionsFromConstraints):
         data = yaml.safe_load(Path(path).read_text())
         return cls.from_dict(data.get("machine", data))
 
-    @property
+    @cached_property
     def platform_joints_mm(self) -> np.ndarray:
         """b_i in the platform frame (3, 3); seed: b_1 = (120, 0, 0), b_2 = (-60, 103.923, 0)..."""
         a = np.array(self.rail_angles_rad)
-        return self.platform_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1)
+        return _frozen(self.platform_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1))
 
-    @property
+    @cached_property
     def rails_mm(self) -> np.ndarray:
         """Rail foot points R_i (3, 3); seed: R_1 = (180, 0, 0), R_2 = (-90, 155.885, 0)..."""
         a = np.array(self.rail_angles_rad)
-        return self.rail_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1)
+        return _frozen(self.rail_radius_mm * np.stack([np.cos(a), np.sin(a), np.zeros(3)], axis=1))
 
-    @property
+    @cached_property
     def plane_normals(self) -> np.ndarray:
         a = np.array(self.rail_angles_rad)
-        return np.stack([-np.sin(a), np.cos(a), np.zeros(3)], axis=1)
+        return _frozen(np.stack([-np.sin(a), np.cos(a), np.zeros(3)], axis=1))
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    """A read-only array: the geometry's derived arrays are computed once (cached_property;
+    each dynamics evaluation read them a few dozen times) and shared by every caller."""
+    array.setflags(write=False)
+    return array
 
 
 def _as_q(q) -> np.ndarray:
