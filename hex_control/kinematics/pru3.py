@@ -142,8 +142,7 @@ class Pru3Geometry(JointPositionsFromConstraints):
         ``guess``'s (or 220 mm level if it is all zeros), x and y from the parasitic motion."""
         positions_mm, guess = np.asarray(positions_mm, float), np.asarray(guess, float)
         start = guess[[2, 3, 4]] if np.any(guess) else (220.0, 0.0, 0.0)
-        q, used = forward_kinematics(self, positions_mm[:3], start, tolerance_mm, max_iterations)
-        solved = inverse_kinematics(self, q)
+        q, used, solved = _forward_kinematics_pose(self, positions_mm[:3], start, tolerance_mm, max_iterations)
         pose = solved.full[0].copy()
         pose[:3] = tool_positions_mm(solved, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]
         return pose, used, float(np.max(np.abs(solved.lengths_mm[0] - positions_mm[:3])))
@@ -314,6 +313,13 @@ def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0,
     """q = (z, alpha, beta) from slider positions by Newton-Raphson (seed 2.1.2):
     dq = J_p^-1 (L - L(q)), q <- q + dq, until max |L(q) - L| < tolerance_mm.
     Returns (q, iterations); raises ValueError when it does not converge."""
+    q, iterations, _ = _forward_kinematics_pose(geometry, lengths_mm, initial_guess, tolerance_mm, max_iterations)
+    return q, iterations
+
+
+def _forward_kinematics_pose(geometry: Pru3Geometry, lengths_mm, initial_guess, tolerance_mm: float,
+                             max_iterations: int) -> tuple[np.ndarray, int, Pru3Pose]:
+    """:func:`forward_kinematics`, and the inverse kinematics of the q found (its last check)."""
     target = np.asarray(lengths_mm, float).reshape(3)
     if not np.all(np.isfinite(target)):
         raise ValueError("slider positions must be finite")
@@ -324,8 +330,8 @@ def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0,
         if not np.all(np.isfinite(error)):
             raise ValueError(f"FK left the rocker geometry at q = {q} (no real solution)")
         if np.max(np.abs(error)) < tolerance_mm:
-            return q, iteration - 1
-        jac = velocity_jacobian(geometry, q)[0]
+            return q, iteration - 1, pose
+        jac = velocity_jacobian(geometry, q, pose)[0]
         if np.linalg.cond(jac) > 1e12:
             raise ValueError(f"singular Jacobian at q = {q}")
         q = q + np.linalg.solve(jac, error)
@@ -404,6 +410,5 @@ class Pru3ToolTracker:
     def tool_position_mm(self, positions_mm) -> np.ndarray:
         """The tool point (3,) mm: sliders, then the feed stage if any."""
         positions_mm = np.asarray(positions_mm, float)
-        self.q, _ = forward_kinematics(self.geometry, positions_mm[:3], self.q, tolerance_mm=self.tolerance_mm)
-        pose = inverse_kinematics(self.geometry, self.q)
+        self.q, _, pose = _forward_kinematics_pose(self.geometry, positions_mm[:3], self.q, self.tolerance_mm, 50)
         return tool_positions_mm(pose, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]
