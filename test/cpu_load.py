@@ -21,7 +21,16 @@ import subprocess
 import sys
 import threading
 
-BURN = "import time\nend = time.monotonic() + 600\nwhile time.monotonic() < end: pass\n"
+#: a burner: killed with its parent (PR_SET_PDEATHSIG; a stopped burner cannot see its own
+#: end), gone at once if the parent went before that, and ending itself after 600 s
+BURN = """import ctypes, os, signal, sys, time
+ctypes.CDLL(None).prctl(1, signal.SIGKILL)
+if os.getppid() != int(sys.argv[1]):
+    sys.exit()
+end = time.monotonic() + 600
+while time.monotonic() < end:
+    pass
+"""
 
 
 def runnable_tasks() -> int:
@@ -44,7 +53,7 @@ class LoadedMachine:
     after it. ``samples_per_tick`` reads of /proc/stat are spread over each ``tick_s``."""
 
     def __init__(self, cores: int | None = None, tick_s: float = 0.1, samples_per_tick: int = 10):
-        self.cores = cores or os.cpu_count() or 2
+        self.cores = cores or len(os.sched_getaffinity(0))  # the cores this process may use
         self.tick_s, self.samples_per_tick = tick_s, samples_per_tick
         self.burners: list[subprocess.Popen] = []
         self.running = 0  # the first ``running`` burners run, the others are stopped
@@ -62,7 +71,13 @@ class LoadedMachine:
         return sum(self._samples) / len(self._samples) if self._samples else math.nan
 
     def __enter__(self) -> LoadedMachine:
-        self.burners = [subprocess.Popen([sys.executable, "-c", BURN]) for _ in range(self.cores)]
+        runnable_tasks()  # a machine that does not say cannot be kept loaded: OSError now
+        try:
+            for _ in range(self.cores):
+                self.burners.append(subprocess.Popen([sys.executable, "-c", BURN, str(os.getpid())]))
+        except BaseException:
+            self._kill_burners()
+            raise
         self.running = self.cores
         self._thread.start()
         return self
@@ -70,8 +85,11 @@ class LoadedMachine:
     def __exit__(self, *exc) -> None:
         self._stop.set()
         self._thread.join()
+        self._kill_burners()
+
+    def _kill_burners(self) -> None:
         for burner in self.burners:
-            burner.kill()
+            burner.kill()  # a stopped one too
             burner.wait()
 
     def _keep(self) -> None:

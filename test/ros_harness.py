@@ -171,18 +171,26 @@ class RosHarness:
         self._thread.join(timeout=5.0)
 
 
-def forked_node_module(command: list[str], env: dict) -> str | None:
-    """The graph's node module that ``command`` starts (``hex-plant ...``, ``python [-P] -m
-    hex_control.ros.nodes.plant ...``), to be forked as the graph forks it; None for any other
-    command, or with HEX_NODE_FORKS=0 (as for a graph)."""
-    if env.get("HEX_NODE_FORKS", "1") == "0":
+def forked_node_module(command: list[str], env: dict) -> tuple[str, list[str]] | None:
+    """(module, its arguments) of a graph node's command line, to be forked as the graph
+    forks it: ``hex-plant ARGS`` or ``PYTHON [-P|-u|-B]... -m hex_control.ros.nodes.plant
+    ARGS``; None for any other command (other interpreter options, another program), or
+    with HEX_NODE_FORKS=0 (as for a graph)."""
+    if env.get("HEX_NODE_FORKS", "1") == "0" or not command:
         return None
     name = Path(command[0]).name
     if name.startswith("hex-"):
-        module = f"hex_control.ros.nodes.{name[4:].replace('-', '_')}"
+        module, arguments = f"hex_control.ros.nodes.{name[4:].replace('-', '_')}", command[1:]
+    elif name.startswith("python"):
+        k = 1
+        while k < len(command) and command[k] in ("-P", "-u", "-B"):
+            k += 1
+        if k + 1 >= len(command) or command[k] != "-m":
+            return None
+        module, arguments = command[k + 1], command[k + 2:]
     else:
-        module = next((command[k + 1] for k, arg in enumerate(command[:-1]) if arg == "-m"), None)
-    return module if module in graph_node_modules() else None
+        return None
+    return (module, list(arguments)) if module in graph_node_modules() else None
 
 
 @functools.cache
@@ -195,24 +203,29 @@ class NodeProcess:
     """A node started as a process of its own, e.g. ``NodeProcess(['hex-load-predictor', ...])``.
 
     A node of the graph (:func:`forked_node_module`) is forked from the fork server its
-    worker's graphs use (``node_forks.py``), after its command line's arguments: the same
-    ``main()``, log, environment, signals and exit code, without the 0.6-0.8 CPU s of imports
-    that each start from the command line paid (some 70 starts a suite)."""
+    worker's graphs use (``node_forks.py``), as the graph's own nodes are: its ``main()``
+    with the command line's arguments, environment, log, signals and exit code, without the
+    0.6-0.8 CPU s of imports that each of some 70 starts a suite paid. Unlike a fresh
+    process it runs in a session of its own, in the server's working directory (the log's
+    path is made absolute), with ``sys.argv[0]`` the module's name."""
 
     def __init__(self, command: list[str], env: dict, log_path: Path):
-        self.log_path = log_path
+        self.log_path = Path(log_path).resolve()
         self._log = None
-        module = forked_node_module(command, env)
-        if module is not None:
-            arguments = command[command.index(module) + 1:] if module in command else command[1:]
-            self._forks = NodeForks.shared(list(graph_node_modules()), env)
-            self.process = self._forks.start(module, arguments, env, log_path)
-            return
         self._forks = None
+        forked = forked_node_module(command, env)
+        if forked is not None:
+            self._forks = NodeForks.shared(list(graph_node_modules()), env)
+            try:
+                self.process = self._forks.start(*forked, env, self.log_path)
+            except BaseException:
+                self._forks.release()
+                raise
+            return
         executable = Path(sys.executable).parent / command[0]
         if executable.exists():
             command = [str(executable), *command[1:]]
-        self._log = open(log_path, "w")  # noqa: SIM115 - closed in stop()
+        self._log = open(self.log_path, "w")  # noqa: SIM115 - closed in stop()
         self.process = subprocess.Popen(command, env=env, stdout=self._log, stderr=subprocess.STDOUT)
 
     def output(self) -> str:

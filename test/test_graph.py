@@ -97,22 +97,30 @@ def test_forked_nodes_report_their_ends_and_outlive_their_server(ros_env, ros, t
 
 def test_a_tests_node_is_forked_when_it_is_one_of_the_graphs():
     python = sys.executable
-    assert forked_node_module(["hex-plant", "--ros-args"], {}) == "hex_control.ros.nodes.plant"
-    assert forked_node_module(["hex-load-predictor"], {}) == "hex_control.ros.nodes.load_predictor"
-    assert forked_node_module([python, "-P", "-m", "hex_control.ros.nodes.robot_state"], {}) \
-        == "hex_control.ros.nodes.robot_state"
+    nodes = "hex_control.ros.nodes"
+    assert forked_node_module(["hex-plant", "--ros-args"], {}) == (f"{nodes}.plant", ["--ros-args"])
+    assert forked_node_module(["hex-load-predictor"], {}) == (f"{nodes}.load_predictor", [])
+    assert forked_node_module([python, "-P", "-m", f"{nodes}.robot_state", "--ros-args", "-r", "a:=b"], {}) \
+        == (f"{nodes}.robot_state", ["--ros-args", "-r", "a:=b"])
     assert forked_node_module(["hex-plant"], {"HEX_NODE_FORKS": "0"}) is None  # as a graph's
     assert forked_node_module(["hex-synthetic-load"], {}) is None  # no graph runs it: the server lacks it
     assert forked_node_module(["hexctl", "demo"], {}) is None
     assert forked_node_module([python, "-m", "hex_control.cli", "view"], {}) is None
+    # what the fork would not do as the command line says: run other code, take other options
+    assert forked_node_module([python, "-c", "print()", "-m", f"{nodes}.plant"], {}) is None
+    assert forked_node_module([python, "-X", "dev", "-m", f"{nodes}.plant"], {}) is None
+    assert forked_node_module(["bash", "-m", f"{nodes}.plant"], {}) is None
 
 
 def test_a_forked_test_node_takes_its_command_lines_arguments_and_stops_on_sigint(ros_env, tmp_path):
     node = NodeProcess([sys.executable, "-P", "-m", "hex_control.ros.nodes.input_shaper", "--ros-args",
                         "-r", "__node:=forked_shaper"], ros_env, tmp_path / "shaper.log")
-    assert isinstance(node.process, ForkedNode)
-    wait_until(lambda: "ready: /forked_shaper" in node.output(), 60.0, what="the node's ready line")
-    assert node.stop() == 0 and not node.alive()
+    try:
+        assert isinstance(node.process, ForkedNode)
+        wait_until(lambda: "ready: /forked_shaper" in node.output(), 60.0, what="the node's ready line")
+    finally:
+        code = node.stop()
+    assert code == 0 and not node.alive()
 
 
 def test_a_new_run_does_not_take_up_an_earlier_runs_unfinished_job(tmp_path):

@@ -33,6 +33,9 @@ import yaml
 from hex_control.kinematics.machine_kind import CONSTRAINT_SETS, ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
+_DERIVED = ("platform_joints_mm", "rails_mm", "plane_normals")  # Pru3Geometry's cached arrays
+FK_MAX_ITERATIONS = 50  # Newton steps of the forward kinematics before it gives up
+
 _INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
 _PARASITIC = [0, 1, 5]  # x, y, gamma
 HOME_Q = (220.0, 0.0, 0.0)  # the head's start (z mm, alpha, beta rad): the plant's and the home pose
@@ -137,7 +140,7 @@ class Pru3Geometry(JointPositionsFromConstraints):
                              f"{np.degrees(self.tilt_max_rad):g} deg")
 
     def forward_pose(self, positions_mm, guess, tolerance_mm: float = 1e-9,
-                     max_iterations: int = 50) -> tuple[np.ndarray, int, float]:
+                     max_iterations: int = FK_MAX_ITERATIONS) -> tuple[np.ndarray, int, float]:
         """The tool pose from the sliders (and the feed stage): z, alpha, beta solved from
         ``guess``'s (or 220 mm level if it is all zeros), x and y from the parasitic motion."""
         positions_mm, guess = np.asarray(positions_mm, float), np.asarray(guess, float)
@@ -182,6 +185,11 @@ class Pru3Geometry(JointPositionsFromConstraints):
     def from_yaml(cls, path) -> Pru3Geometry:
         data = yaml.safe_load(Path(path).read_text())
         return cls.from_dict(data.get("machine", data))
+
+    def __getstate__(self) -> dict:
+        """The fields only: the cached arrays are computed again where it is unpickled
+        (a copy would come back writeable)."""
+        return {name: value for name, value in self.__dict__.items() if name not in _DERIVED}
 
     @cached_property
     def platform_joints_mm(self) -> np.ndarray:
@@ -309,7 +317,7 @@ def tool_positions_mm(pose: Pru3Pose, feed_mm=0.0) -> np.ndarray:
 
 
 def forward_kinematics(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0, 0.0, 0.0),
-                       tolerance_mm: float = 1e-10, max_iterations: int = 50) -> tuple[np.ndarray, int]:
+                       tolerance_mm: float = 1e-10, max_iterations: int = FK_MAX_ITERATIONS) -> tuple[np.ndarray, int]:
     """q = (z, alpha, beta) from slider positions by Newton-Raphson (seed 2.1.2):
     dq = J_p^-1 (L - L(q)), q <- q + dq, until max |L(q) - L| < tolerance_mm.
     Returns (q, iterations); raises ValueError when it does not converge."""
@@ -339,7 +347,7 @@ def _forward_kinematics_pose(geometry: Pru3Geometry, lengths_mm, initial_guess, 
 
 
 def forward_kinematics_rows(geometry: Pru3Geometry, lengths_mm, initial_guess=(200.0, 0.0, 0.0),
-                            tolerance_mm: float = 1e-10, max_iterations: int = 50) -> np.ndarray:
+                            tolerance_mm: float = 1e-10, max_iterations: int = FK_MAX_ITERATIONS) -> np.ndarray:
     """:func:`forward_kinematics` of n rows of slider positions (n, 3) at once, each from
     ``initial_guess``: the same Newton steps, vectorized, a row leaving the iteration once
     it is within ``tolerance_mm``. Returns q (n, 3); ValueError naming the first row that
@@ -410,5 +418,6 @@ class Pru3ToolTracker:
     def tool_position_mm(self, positions_mm) -> np.ndarray:
         """The tool point (3,) mm: sliders, then the feed stage if any."""
         positions_mm = np.asarray(positions_mm, float)
-        self.q, _, pose = _forward_kinematics_pose(self.geometry, positions_mm[:3], self.q, self.tolerance_mm, 50)
+        self.q, _, pose = _forward_kinematics_pose(self.geometry, positions_mm[:3], self.q, self.tolerance_mm,
+                                                    FK_MAX_ITERATIONS)
         return tool_positions_mm(pose, positions_mm[3] if len(positions_mm) > 3 else 0.0)[0]
