@@ -33,7 +33,6 @@ import yaml
 from hex_control.kinematics.machine_kind import CONSTRAINT_SETS, ConstraintCheck, JointPositionsFromConstraints
 from hex_control.kinematics.rotation import rotation_derivatives, rotation_matrix
 
-_DERIVED = ("platform_joints_mm", "rails_mm", "plane_normals")  # Pru3Geometry's cached arrays
 FK_MAX_ITERATIONS = 50  # Newton steps of the forward kinematics before it gives up
 
 _INDEPENDENT = [2, 3, 4]  # z, alpha, beta in (x, y, z, alpha, beta, gamma)
@@ -189,7 +188,8 @@ class Pru3Geometry(JointPositionsFromConstraints):
     def __getstate__(self) -> dict:
         """The fields only: the cached arrays are computed again where it is unpickled
         (a copy would come back writeable)."""
-        return {name: value for name, value in self.__dict__.items() if name not in _DERIVED}
+        return {name: value for name, value in self.__dict__.items()
+                if not isinstance(getattr(type(self), name, None), cached_property)}
 
     @cached_property
     def platform_joints_mm(self) -> np.ndarray:
